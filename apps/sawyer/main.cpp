@@ -1,0 +1,124 @@
+// sawyer: the command line. Each subcommand parses its options, calls the libraries, and turns
+// errors into one line on stderr and a non-zero exit code.
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include "log_source.h"
+#include "sawyer/model/log_json.h"
+#include "sawyer/model/log_summary.h"
+#include "sawyer/maps/float_maps.h"
+#include "sawyer/maps/published_maps.h"
+#include "sawyer/model/log_generator.h"
+
+namespace fs = std::filesystem;
+using namespace sawyer;
+
+namespace {
+
+int fail(const Error& e) {
+  std::cerr << "sawyer: " << e.message() << "\n";
+  return 1;
+}
+
+int cmd_info(const std::string& input) {
+  Result<LogModel> log = app::load_log(input);
+  if (!log) return fail(log.error());
+  print_summary(std::cout, log.value(), summarize(log.value()));
+  return 0;
+}
+
+int cmd_convert(const std::string& input, const std::string& output, std::string format) {
+  Result<LogModel> log = app::load_log(input);
+  if (!log) return fail(log.error());
+  if (format.empty()) format = fs::path(output).extension() == ".json" ? "log" : "published";
+  Status st;
+  if (format == "log") {
+    st = write_log_json(log.value(), output);
+  } else if (format == "published") {
+    st = export_published_maps(log.value(), output);
+  } else if (format == "float") {
+    st = export_float_maps(log.value(), output);
+  } else {
+    return fail(Error("--format", "unknown format '" + format + "' (log, published, float)"));
+  }
+  if (!st) return fail(st.error());
+  std::cout << "wrote " << output << " (" << format << ", " << log.value().knots.size()
+            << " knots)\n";
+  return 0;
+}
+
+int cmd_generate(const std::string& species, std::uint64_t seed, double length_m, double top_mm,
+                 const std::string& position, const std::string& output) {
+  Result<Species> sp = parse_species(species);
+  if (!sp) return fail(sp.error());
+  Result<LogPosition> pos = parse_log_position(position);
+  if (!pos) return fail(pos.error());
+  GeneratorOptions o;
+  o.species = sp.value();
+  o.position = pos.value();
+  o.seed = seed;
+  o.length_mm = length_m * 1e3;
+  o.top_diameter_mm = top_mm;
+  Status v = o.validate();
+  if (!v) return fail(v.error());
+  Result<LogModel> log = generate_log(o);
+  if (!log) return fail(log.error());
+  Status st = write_log_json(log.value(), output);
+  if (!st) return fail(st.error());
+  std::cout << "wrote " << output << "\n";
+  print_summary(std::cout, log.value(), summarize(log.value()));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"sawyer: CT scans of logs in, log models, virtual sawing and cutting reports out"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "sawyer 0.1.0");
+
+  std::string info_in;
+  CLI::App* info = app.add_subcommand(
+      "info", "Print a log's length, diameters, volume, taper, pith wander and knots");
+  info->add_option("input", info_in,
+                   "log.json, or a folder of published maps, float maps or stem-bank files")
+      ->required();
+
+  std::string conv_in, conv_out, conv_format;
+  CLI::App* convert = app.add_subcommand(
+      "convert", "Convert between log.json, the published map format and float maps");
+  convert->add_option("input", conv_in, "log.json or a maps / stem-bank folder")->required();
+  convert->add_option("-o,--output", conv_out, "output: a .json file or a maps folder")->required();
+  convert->add_option("--format", conv_format,
+                      "log | published | float (default: log for .json, else published)")
+      ->check(CLI::IsMember({"log", "published", "float"}));
+
+  std::string gen_species = "spruce", gen_out, gen_position = "drawn";
+  std::uint64_t gen_seed = 1;
+  double gen_length_m = 0, gen_top_mm = 0;
+  CLI::App* generate = app.add_subcommand("generate", "Generate a realistic random log model");
+  generate->add_option("--species", gen_species, "pine | spruce")->capture_default_str();
+  generate->add_option("--seed", gen_seed, "random seed (same seed, same log)")
+      ->capture_default_str();
+  generate->add_option("--length-m", gen_length_m, "log length in metres (default: random 3-6 m)");
+  generate->add_option("--top-diameter-mm", gen_top_mm,
+                       "top diameter under bark (default: random)");
+  generate->add_option("--position", gen_position,
+                       "where in the tree: butt | middle | top | drawn (default: drawn)");
+  generate->add_option("-o,--output", gen_out, "log.json to write")->required();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+
+  if (*info) return cmd_info(info_in);
+  if (*convert) return cmd_convert(conv_in, conv_out, conv_format);
+  if (*generate)
+    return cmd_generate(gen_species, gen_seed, gen_length_m, gen_top_mm, gen_position, gen_out);
+  return 0;
+}

@@ -1,0 +1,31 @@
+# Shared CMake helpers for Sawyer targets.
+
+# One INTERFACE target carries the warning flags; every Sawyer target links it privately.
+add_library(sawyer_warnings INTERFACE)
+target_compile_options(sawyer_warnings INTERFACE
+  $<$<CXX_COMPILER_ID:GNU,Clang>:-Wall -Wextra -Wpedantic -Wshadow -Wno-unused-parameter>)
+add_library(sawyer::warnings ALIAS sawyer_warnings)
+
+# sawyer_add_library(<name> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+# Creates sawyer_<name> with alias sawyer::<name>; public headers live in include/.
+function(sawyer_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(sawyer_${name} STATIC ${ARG_SOURCES})
+  add_library(sawyer::${name} ALIAS sawyer_${name})
+  target_include_directories(sawyer_${name}
+    PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
+    PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  target_link_libraries(sawyer_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS} sawyer::warnings)
+  set_target_properties(sawyer_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+# sawyer_add_test(<name> [LIBS ...]): tests/<name>_test.cpp, each TEST discovered by CTest on its own.
+function(sawyer_add_test name)
+  cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
+  add_executable(${name}_test ${name}_test.cpp)
+  target_link_libraries(${name}_test PRIVATE sawyer::test_util ${ARG_LIBS} GTest::gmock GTest::gtest GTest::gtest_main sawyer::warnings)
+  add_dependencies(${name}_test sawyer)  # tests may run the command line
+  gtest_discover_tests(${name}_test
+    WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}
+    DISCOVERY_TIMEOUT 60)
+endfunction()

@@ -1,0 +1,127 @@
+// The log model: what the CT pipeline produces, the renderer draws, the sawing optimiser cuts
+// and the phantom turns back into CT (DESIGN.md section 4).
+//
+// Frames and units: millimetres and radians. Scanner frame x, y in the slice plane, z along the
+// log. Azimuth ω = atan2(y − pith_y, x − pith_x) in [0, 2π), counter-clockwise from +x seen
+// from +z. Pith distance r = horizontal distance from the pith at that height.
+//
+//   LogModel log = ...;
+//   double R = log.stem.radius_at(omega, z);           // outer radius under bark, mm
+//   Vec3 p = log.knots[0].axis_point(50.0, log.stem);  // knot axis 50 mm from the pith
+//   Material m = log.material_at({x, y, z});           // air / wood / sound or dead knot
+//
+// Thread safety: all const member functions are safe to call concurrently.
+#pragma once
+
+#include <algorithm>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sawyer/core/vec.h"
+
+namespace sawyer {
+
+// The stem, sampled along z at a fixed step. Sample i stands for the slab of thickness dz_mm
+// centred on z_i = z0_mm + i·dz_mm, so the log spans [z0 − dz/2, z0 + (n − ½)·dz] and its
+// length is n·dz.
+struct Stem {
+  double z0_mm = 0.0;  // height of sample 0
+  double dz_mm = 10.0;  // sample step along z (> 0)
+  int n_angles = 360;  // angular samples per height; angle k is at ω = 2πk / n_angles
+  std::vector<Vec2> pith;                  // pith (x, y) per height, mm
+  std::vector<std::vector<double>> radius;  // outer radius under bark [height][angle], mm
+  // Optional heartwood radius [height][angle], mm; empty when unknown.
+  std::vector<std::vector<double>> heartwood;
+  // Optional bark thickness per height, mm; empty when unknown.
+  std::vector<double> bark_mm;
+
+  int slice_count() const { return static_cast<int>(pith.size()); }
+  double z_at(int i) const { return z0_mm + i * dz_mm; }
+  double length_mm() const { return slice_count() * dz_mm; }
+  double z_begin() const { return z0_mm - 0.5 * dz_mm; }
+  double z_end() const { return z0_mm + (slice_count() - 0.5) * dz_mm; }
+  bool has_heartwood() const { return !heartwood.empty(); }
+
+  // Pith at height z: cubic (Catmull-Rom) interpolation between samples, clamped at the ends.
+  Vec2 pith_at(double z) const;
+  // d(pith)/dz at height z (mm per mm), consistent with pith_at.
+  Vec2 pith_slope_at(double z) const;
+  // Outer radius at azimuth ω and height z: bicubic Catmull-Rom, periodic in ω, clamped in z.
+  double radius_at(double omega, double z) const;
+  // Heartwood radius, same interpolation; 0 when the stem has no heartwood.
+  double heartwood_at(double omega, double z) const;
+  // Mean outer radius of sample i.
+  double mean_radius(int i) const;
+  // Cross-section area of sample i (mm²), exact for the piecewise-linear polar outline.
+  double area(int i) const;
+
+  // Pith distance and azimuth of a point, measured from the pith at the point's height.
+  void polar(const Vec3& p, double* r, double* omega) const;
+  // True when p lies inside the outer surface and within the log's z extent.
+  bool contains(const Vec3& p) const;
+};
+
+// The diameter profile of a knot: d(r) = d_dead · (r / r_dead)^exponent for r ≤ r_dead (the
+// knot thickens while it lives), and d_dead from r_dead to r_end (a dead knot stops growing).
+struct KnotDiameter {
+  double d_dead = 0.0;    // diameter at the sound/dead border, mm
+  double exponent = 1.0;  // growth exponent p (> 0)
+};
+
+// One knot, the knot formula of DESIGN.md section 4, in the stem's frame:
+//   axis height   z(r) = z0 + a·√r + b·r
+//   axis azimuth  ω(r) = omega0 + twist·ln(r)        (r in mm, ln taken at max(r, 1))
+// The knot starts at the pith (r = 0) and ends at r_end; it is sound (intergrown) for
+// r ≤ r_dead and dead beyond. A knot with r_dead ≥ r_end is sound over its whole length.
+struct Knot {
+  int id = 0;
+  double z0 = 0.0;      // mm
+  double a = 0.0;       // mm / √mm
+  double b = 0.0;       // mm / mm
+  double omega0 = 0.0;  // rad
+  double twist = 0.0;   // rad per ln(mm)
+  double r_dead = 0.0;  // mm
+  double r_end = 0.0;   // mm
+  KnotDiameter diameter;
+  // Fit quality from the CT pipeline; 0 for knots that were not fitted.
+  double fit_rms_mm = 0.0;
+  int support = 0;  // supporting voxels or slices
+
+  double height_at(double r) const;
+  double azimuth_at(double r) const;
+  double diameter_at(double r) const;
+  bool dead_at(double r) const { return r > r_dead; }
+  bool has_dead_part() const { return r_dead < r_end; }
+  // Largest diameter over the knot's length.
+  double max_diameter() const { return diameter_at(std::min(r_dead, r_end)); }
+
+  // Axis point at pith distance r (mm), using the stem's pith at the axis height.
+  Vec3 axis_point(double r, const Stem& stem) const;
+  // Unit tangent of the axis at pith distance r, pointing away from the pith.
+  Vec3 axis_direction(double r, const Stem& stem) const;
+  // Lowest and highest z the knot occupies (axis range widened by half the largest diameter).
+  void z_range(double* zmin, double* zmax) const;
+};
+
+enum class Material { kAir, kWood, kSoundKnot, kDeadKnot };
+
+struct MaterialSample {
+  Material material = Material::kAir;
+  int knot = -1;           // index into LogModel::knots when inside a knot
+  bool heartwood = false;  // inside the heartwood radius (when the stem has one)
+};
+
+struct LogModel {
+  std::string id;       // e.g. "gran1_spruce"
+  std::string species;  // "spruce", "pine", ... free text
+  std::string source;   // provenance: where the model came from
+  Stem stem;
+  std::vector<Knot> knots;
+
+  // What is at point p. Inside a knot means: within half the knot's diameter of its axis
+  // point at the same pith distance (the paper's pseudo-nearest point), with r ≤ r_end.
+  MaterialSample material_at(const Vec3& p) const;
+};
+
+}  // namespace sawyer

@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# The README's first command: installs what is missing, builds sawyer, and runs the main job on
+# the bundled real spruce log. Safe to run again: set-up and build are incremental.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install_deps.sh
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DSAWYER_BUILD_TESTS=OFF >/dev/null
+cmake --build build --target sawyer
+echo
+build/apps/sawyer/sawyer info sample_logs/gran1_spruce/log.json

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs Sawyer's build and run dependencies from Debian 12 packages.
+# Idempotent: packages already present are not touched, and apt is not called at all when
+# everything is installed. Needs root (or sudo) only when something is missing.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev
+  libopencv-dev libvtk9-dev libopenimageio-dev openimageio-tools
+  libglfw3-dev libceres-dev libgdcm-dev libsqlite3-dev libcairo2-dev libimgui-dev
+  libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+echo "install_deps: installing ${#missing[@]} missing packages: ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

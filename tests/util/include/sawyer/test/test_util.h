@@ -1,0 +1,37 @@
+// Shared helpers for Sawyer's tests: data paths, temporary folders, running the CLI.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+namespace sawyer::test {
+
+// The project's source root: $SAWYER_SOURCE_DIR, else the source tree this was built from.
+std::filesystem::path source_dir();
+// sample_logs/<name> inside the project.
+std::filesystem::path sample_log(const std::string& name);
+// The bundled real spruce stem-bank files (sample_logs/gran1_spruce/source).
+std::filesystem::path gran1_source_dir();
+
+// A fresh temporary folder, removed when the object goes out of scope.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// Runs the `sawyer` binary ($SAWYER_BIN, else the one built with the tests) with `args`; returns the exit code, stdout+stderr in
+// *output.
+int run_sawyer(const std::string& args, std::string* output);
+
+// Writes a text file (test fixtures).
+void write_file(const std::filesystem::path& path, const std::string& text);
+
+}  // namespace sawyer::test

@@ -1,0 +1,59 @@
+#include "sawyer/test/test_util.h"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+namespace sawyer::test {
+namespace fs = std::filesystem;
+
+fs::path source_dir() {
+  const char* s = std::getenv("SAWYER_SOURCE_DIR");
+  if (s && *s) return fs::path(s);
+  return fs::path(SAWYER_TEST_SOURCE_DIR);
+}
+
+fs::path sample_log(const std::string& name) { return source_dir() / "sample_logs" / name; }
+
+fs::path gran1_source_dir() { return sample_log("gran1_spruce") / "source"; }
+
+TempDir::TempDir() {
+  std::random_device rd;
+  std::ostringstream name;
+  name << "sawyer_test_" << std::hex << rd() << rd();
+  path_ = fs::temp_directory_path() / name.str();
+  fs::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
+int run_sawyer(const std::string& args, std::string* output) {
+  const char* env = std::getenv("SAWYER_BIN");
+  const char* bin = (env && *env) ? env : SAWYER_TEST_BIN;
+  const std::string cmd = std::string("\"") + bin + "\" " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return -1;
+  std::array<char, 4096> buf{};
+  std::string out;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) out.append(buf.data(), n);
+  const int status = pclose(pipe);
+  if (output) *output = out;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+void write_file(const fs::path& path, const std::string& text) {
+  fs::create_directories(path.parent_path());
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+}  // namespace sawyer::test
