@@ -1,0 +1,40 @@
+// The format readers and writers behind open_ct() and create_ct_writer(). Internal.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+
+#include "sawyer/core/result.h"
+#include "sawyer/ct/slice_sink.h"
+#include "sawyer/ct/slice_source.h"
+
+namespace sawyer::ct::detail {
+
+namespace fs = std::filesystem;
+
+// dicom_reader.cpp: a folder of DICOM files (or one file of it); picks the series.
+// Returns the raw z positions (possibly uneven); open_ct applies make_uniform_z.
+Result<std::unique_ptr<SliceSource>> open_dicom(const fs::path& path, const OpenOptions& options);
+// True when the file starts like DICOM (preamble + "DICM", or a bare group-0008 data set).
+bool looks_like_dicom(const fs::path& file);
+
+// image_stack.cpp: a folder of 2D TIFF/PNG files (natural sort of names), or one multi-page TIFF.
+Result<std::unique_ptr<SliceSource>> open_image_stack(const fs::path& path,
+                                                      const OpenOptions& options);
+
+// vtk_volume.cpp: .vti, .mha/.mhd, .nrrd/.nhdr.
+Result<std::unique_ptr<SliceSource>> open_vtk_volume(const fs::path& file,
+                                                     const OpenOptions& options);
+
+// Writers, one per family.
+Result<std::unique_ptr<SliceSink>> create_dicom_writer(const fs::path& out,
+                                                       const VolumeGeometry& geometry,
+                                                       const WriteOptions& options);
+Result<std::unique_ptr<SliceSink>> create_image_stack_writer(const fs::path& out,
+                                                             const VolumeGeometry& geometry,
+                                                             const WriteOptions& options);
+Result<std::unique_ptr<SliceSink>> create_volume_writer(const fs::path& out,
+                                                        const VolumeGeometry& geometry,
+                                                        const WriteOptions& options);
+
+}  // namespace sawyer::ct::detail

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets with clang (ASan + UBSan) in build-fuzz/ and runs each for the
+# given number of seconds (default 180), starting from the seed corpora under tests/corpus/.
+# New crashes land in build-fuzz/crashes/<target>/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+SECONDS_PER_TARGET="${1:-180}"
+scripts/install_deps.sh
+for p in clang libclang-rt-14-dev; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+    $SUDO apt-get install -y -qq --no-install-recommends clang libclang-rt-14-dev
+    break
+  fi
+done
+CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DSAWYER_BUILD_TESTS=OFF -DSAWYER_BUILD_FUZZERS=ON >/dev/null
+cmake --build build-fuzz --target fuzz_dicom fuzz_image_stack fuzz_vtk_volume
+for t in fuzz_dicom fuzz_image_stack fuzz_vtk_volume; do
+  mkdir -p "build-fuzz/corpus/$t" "build-fuzz/crashes/$t"
+  seeds="tests/corpus/fuzz/$t"
+  echo "== $t: ${SECONDS_PER_TARGET}s"
+  "build-fuzz/ct_pipeline/fuzz/$t" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 \
+    -artifact_prefix="build-fuzz/crashes/$t/" "build-fuzz/corpus/$t" ${seeds:+$( [ -d "$seeds" ] && echo "$seeds")} \
+    2>&1 | grep -E "^#[0-9]+ +(DONE|INITED)|ERROR|SUMMARY|Test unit written" || true
+done
