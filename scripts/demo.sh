@@ -8,3 +8,9 @@ cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DSAWYER_BUILD_TESTS=OFF
 cmake --build build --target sawyer
 echo
 build/apps/sawyer/sawyer info sample_logs/gran1_spruce/log.json
+echo
+# CT in and out: half a metre of the same log as a scanner would see it, then read back.
+build/apps/sawyer/sawyer phantom sample_logs/gran1_spruce/log.json -o out/demo_ct \
+  --from-mm 1000 --to-mm 1500 --seed 1
+echo
+build/apps/sawyer/sawyer info out/demo_ct

@@ -162,6 +162,8 @@ float wf_knot_radius_noise(float beta, float r, uint knot_seed, float amp) {
 // that far points see the knot's plain radius.
 float wf_knot_rho(float rho0, float dist, float beta, float r, uint knot_seed, float amp) {
   float near_outline = 1.0 - smoothstep(2.0 * rho0, 3.0 * rho0, dist);
+  // The noise costs more than the rest of a knot's evaluation: skip it where it has no effect.
+  if (near_outline <= 0.0 || amp <= 0.0) return rho0;
   return rho0 * (1.0 + near_outline * wf_knot_radius_noise(beta, r, knot_seed, amp));
 }
 

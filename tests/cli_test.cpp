@@ -106,7 +106,11 @@ TEST(Cli, UnknownInputIsNamed) {
   EXPECT_NE(test::run_sawyer("info " + quoted(dir / "missing"), &out), 0);
   EXPECT_THAT(out, HasSubstr((dir / "missing").string() + ": no such file or folder"));
   EXPECT_NE(test::run_sawyer("info " + quoted(dir.path()), &out), 0);
-  EXPECT_THAT(out, HasSubstr("folder holds no log.json"));
+  EXPECT_THAT(out, HasSubstr("the folder is empty; nor a log model (log.json"));
+  test::write_file(dir / "notes.txt", "log 42");
+  EXPECT_NE(test::run_sawyer("info " + quoted(dir.path()), &out), 0);
+  EXPECT_THAT(out, HasSubstr("no CT slices found among 1 files"));
+  EXPECT_THAT(out, HasSubstr("nor a log model"));
 }
 
 TEST(Cli, EverySubcommandHasHelp) {

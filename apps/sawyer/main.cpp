@@ -3,9 +3,12 @@
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <string>
 
+#include "cmd_phantom.h"
+#include "ct_options.h"
 #include "log_source.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/model/log_summary.h"
@@ -23,11 +26,23 @@ int fail(const Error& e) {
   return 1;
 }
 
-int cmd_info(const std::string& input) {
-  Result<LogModel> log = app::load_log(input);
-  if (!log) return fail(log.error());
-  print_summary(std::cout, log.value(), summarize(log.value()));
-  return 0;
+// A log model (log.json, maps, stem bank) gets its summary; anything else is read as a CT scan.
+int cmd_info(const std::string& input, const app::CtCliOptions& ct_options) {
+  if (app::detect_log_source(input)) {
+    Result<LogModel> log = app::load_log(input);
+    if (!log) return fail(log.error());
+    print_summary(std::cout, log.value(), summarize(log.value()));
+    return 0;
+  }
+  Status st = app::print_ct_info(input, app::to_open_options(ct_options), std::cout, std::cerr);
+  if (st) return 0;
+  // A folder with neither: say both what was looked for.
+  const std::string& m = st.error().message();
+  if (m.find("the folder is empty") != std::string::npos ||
+      m.find("no CT slices found") != std::string::npos)
+    return fail(Error(m + "; nor a log model (log.json, published maps, float maps or "
+                          "stem-bank files)"));
+  return fail(st.error());
 }
 
 int cmd_convert(const std::string& input, const std::string& output, std::string format) {
@@ -81,11 +96,16 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "sawyer 0.1.0");
 
   std::string info_in;
+  app::CtCliOptions info_ct;
   CLI::App* info = app.add_subcommand(
-      "info", "Print a log's length, diameters, volume, taper, pith wander and knots");
+      "info",
+      "Print a log's length, diameters, volume, taper, pith wander and knots, or what a CT scan "
+      "holds (format, slices, spacing, HU range, problems)");
   info->add_option("input", info_in,
-                   "log.json, or a folder of published maps, float maps or stem-bank files")
+                   "log.json, a folder of published maps, float maps or stem-bank files, or a CT "
+                   "scan (DICOM/TIFF/PNG folder, .vti, .mha, .nrrd)")
       ->required();
+  app::add_ct_options(info, info_ct);
 
   std::string conv_in, conv_out, conv_format;
   CLI::App* convert = app.add_subcommand(
@@ -110,14 +130,18 @@ int main(int argc, char** argv) {
                        "where in the tree: butt | middle | top | drawn (default: drawn)");
   generate->add_option("-o,--output", gen_out, "log.json to write")->required();
 
+  std::function<int()> run_phantom;
+  app::add_phantom_command(app, run_phantom);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
 
-  if (*info) return cmd_info(info_in);
+  if (*info) return cmd_info(info_in, info_ct);
   if (*convert) return cmd_convert(conv_in, conv_out, conv_format);
+  if (run_phantom) return run_phantom();
   if (*generate)
     return cmd_generate(gen_species, gen_seed, gen_length_m, gen_top_mm, gen_position, gen_out);
   return 0;

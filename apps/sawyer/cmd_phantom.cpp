@@ -1,0 +1,128 @@
+// `sawyer phantom`: parses the options into ct::PhantomOptions, builds the phantom, writes the
+// slice folder with its truth/ and reports progress (stderr) and speed (stdout).
+#include "cmd_phantom.h"
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "log_source.h"
+#include "sawyer/ct/phantom.h"
+
+namespace sawyer::app {
+
+namespace {
+
+struct PhantomCli {
+  std::string input, output, format = "dicom";
+  ct::PhantomOptions o;
+  std::optional<double> from_mm, to_mm, rescale_intercept;
+  bool no_bed = false;
+};
+
+int fail(const Error& e) {
+  std::cerr << "sawyer: " << e.message() << "\n";
+  return 1;
+}
+
+int run(const PhantomCli& c) {
+  Result<ct::Format> format = ct::parse_phantom_format(c.format);
+  if (!format) return fail(format.error());
+  ct::PhantomOptions o = c.o;
+  o.from_mm = c.from_mm;
+  o.to_mm = c.to_mm;
+  o.bed = !c.no_bed;
+  if (Status st = o.validate(); !st) return fail(st.error());
+
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(c.input, ec)) return fail(Error(c.input, "no such file or folder"));
+  Result<LogModel> log = load_log(c.input);
+  if (!log) return fail(log.error());
+  auto ph = ct::Phantom::create(log.value(), o);
+  if (!ph) return fail(ph.error().with_context(c.input));
+  const ct::Phantom& p = *ph.value();
+
+  ct::PhantomWriteOptions wo;
+  wo.format = format.value();
+  wo.rescale_intercept = c.rescale_intercept;
+  wo.input_name = c.input;
+  const int total = static_cast<int>(p.kept().size());
+  const auto t0 = std::chrono::steady_clock::now();
+  int next_report = 1;
+  if (total >= 20) {
+    wo.progress = [&](int done, int n) {
+      // A line every 10 %.
+      if (done * 10 < next_report * n) return;
+      while (done * 10 >= next_report * n) ++next_report;
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::cerr << "phantom: " << (100 * done / n) << "% (" << done << "/" << n << " slices, "
+                << static_cast<int>(done / std::max(s, 1e-9) * 10) / 10.0 << " slices/s)\n";
+    };
+  }
+  auto sum = ct::write_phantom(p, c.output, wo);
+  if (!sum) return fail(sum.error());
+  const ct::VolumeGeometry& g = p.geometry();
+  std::cout << "wrote " << c.output << " (" << ct::format_name(wo.format) << ", " << g.width
+            << " x " << g.height << " at " << g.spacing_x << " mm, " << o.slice_spacing_mm
+            << " mm spacing, truth/ beside): " << sum.value().brief_report() << "\n";
+  return 0;
+}
+
+}  // namespace
+
+void add_phantom_command(CLI::App& app, std::function<int()>& run_out) {
+  auto c = std::make_shared<PhantomCli>();
+  CLI::App* cmd = app.add_subcommand(
+      "phantom",
+      "Synthesise CT slices of a log model (DICOM, TIFF/PNG stack or volume) with "
+      "ground truth in truth/");
+  cmd->add_option("input", c->input, "log.json (or a maps / stem-bank folder)")->required();
+  cmd->add_option("-o,--output", c->output, "slice folder to create")->required();
+  cmd->add_option("--format", c->format, "dicom | tiff | png | mha | vti | nrrd")
+      ->capture_default_str();
+  ct::PhantomOptions& o = c->o;
+  cmd->add_option("--size", o.image_size, "image width and height, pixels")->capture_default_str();
+  cmd->add_option("--pixel-mm", o.pixel_mm, "pixel size, mm")->capture_default_str();
+  cmd->add_option("--spacing-mm", o.slice_spacing_mm, "distance between slices, mm")
+      ->capture_default_str();
+  cmd->add_option("--thickness-mm", o.slice_thickness_mm,
+                  "slice thickness, mm (default: the spacing)");
+  cmd->add_option("--sub-slices", o.sub_slices,
+                  "samples across the slice thickness (default: one per ~1.25 mm)");
+  cmd->add_option("--from-mm", c->from_mm, "first slice centre, log frame mm (default: log start)");
+  cmd->add_option("--to-mm", c->to_mm, "last slice centre, log frame mm (default: log end)");
+  cmd->add_option("--noise-hu", o.noise_hu, "Gaussian noise sigma, HU")->capture_default_str();
+  cmd->add_option("--blur-px", o.blur_px, "Gaussian PSF sigma, pixels")->capture_default_str();
+  cmd->add_option("--seed", o.seed, "random seed: noise, dropped slices, clutter")
+      ->capture_default_str();
+  cmd->add_option("--offset-x-mm", o.placement.offset_x_mm,
+                  "pith (mid scan) right of the image centre, mm");
+  cmd->add_option("--offset-y-mm", o.placement.offset_y_mm,
+                  "pith (mid scan) below the image centre, mm");
+  cmd->add_option("--tilt-x-deg", o.placement.tilt_x_deg, "tilt about the x axis, degrees (<= 10)");
+  cmd->add_option("--tilt-y-deg", o.placement.tilt_y_deg, "tilt about the y axis, degrees (<= 10)");
+  cmd->add_option("--roll-deg", o.placement.roll_deg, "rotation about the log axis, degrees");
+  cmd->add_option("--ring-width-mm", o.ring_width_mm, "mean annual ring width, mm")
+      ->capture_default_str();
+  cmd->add_option("--ring-amplitude", o.ring_amplitude,
+                  "ring modulation, peak to peak, fraction of dry density")
+      ->capture_default_str();
+  cmd->add_option("--knot-noise", o.knot_noise, "knot outline noise (0: exact diameters)")
+      ->capture_default_str();
+  cmd->add_option("--drop-slices", o.drop_slices, "leave out this many random slices")
+      ->capture_default_str();
+  cmd->add_flag("--clutter", o.clutter, "add steel support bars and a chain");
+  cmd->add_flag("--no-bed", c->no_bed, "leave out the scanner bed");
+  cmd->add_option("--rescale-intercept", c->rescale_intercept,
+                  "DICOM and image stacks: stored = HU - intercept (default: 0 for DICOM, "
+                  "-1024 for TIFF/PNG; volume files always store HU)");
+  cmd->add_option("--threads", o.threads, "worker threads (default: all cores)");
+  cmd->callback([c, &run_out]() { run_out = [c]() { return run(*c); }; });
+}
+
+}  // namespace sawyer::app
