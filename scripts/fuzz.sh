@@ -18,9 +18,11 @@ CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWit
 cmake --build build-fuzz --target fuzz_dicom fuzz_image_stack fuzz_vtk_volume
 for t in fuzz_dicom fuzz_image_stack fuzz_vtk_volume; do
   mkdir -p "build-fuzz/corpus/$t" "build-fuzz/crashes/$t"
-  seeds="tests/corpus/fuzz/$t"
+  dirs=("build-fuzz/corpus/$t")
+  [ -d "tests/corpus/fuzz/$t" ] && dirs+=("tests/corpus/fuzz/$t")
   echo "== $t: ${SECONDS_PER_TARGET}s"
+  LSAN_OPTIONS=suppressions=$PWD/ct_pipeline/fuzz/lsan.supp \
   "build-fuzz/ct_pipeline/fuzz/$t" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 \
-    -artifact_prefix="build-fuzz/crashes/$t/" "build-fuzz/corpus/$t" ${seeds:+$( [ -d "$seeds" ] && echo "$seeds")} \
+    -artifact_prefix="build-fuzz/crashes/$t/" "${dirs[@]}" \
     2>&1 | grep -E "^#[0-9]+ +(DONE|INITED)|ERROR|SUMMARY|Test unit written" || true
 done

@@ -435,6 +435,40 @@ TEST(DicomBadInput, RowsWithoutPixelData) {
   expect_refused(tmp / "s", {f.string() + ": no Pixel Data (truncated file?)"});
 }
 
+// Inputs the fuzzer found (tests/corpus/ct_dicom/fuzz_findings): each once made GDCM abort
+// (an assertion in its libjpeg wrapper) or leak (its JPEG-LS and PVRG paths). Beside a valid
+// slice of their series (as in the fuzz target) each must now give one error naming the file,
+// at open or at read, and never bring the process down.
+TEST(DicomBadInput, FuzzFindingsGiveErrorsNotCrashes) {
+  const fs::path findings = sawyer::test::source_dir() / "tests/corpus/ct_dicom/fuzz_findings";
+  int cases = 0;
+  for (const auto& e : fs::directory_iterator(findings)) {
+    TempDir tmp;
+    write_series(tmp / "stage", 1, 32, 32, 7);  // the fuzz target's companion slice
+    fs::rename(tmp / "stage" / "slice_0001.dcm", tmp / "companion.dcm");
+    fs::remove_all(tmp / "stage");
+    const fs::path input = tmp / "input.dcm";
+    fs::copy_file(e.path(), input);
+    ++cases;
+    auto src = open_ct(tmp.path());
+    if (!src) {
+      EXPECT_THAT(src.error().message(), HasSubstr("input.dcm: ")) << e.path();
+      continue;
+    }
+    bool failed = false;
+    Slice s;
+    for (int i = 0; i < src.value()->geometry().slice_count(); ++i) {
+      const Status st = src.value()->read(i, s);
+      if (!st) {
+        failed = true;
+        EXPECT_THAT(st.error().message(), HasSubstr("input.dcm: ")) << e.path();
+      }
+    }
+    EXPECT_TRUE(failed) << e.path() << " read without an error";
+  }
+  EXPECT_EQ(cases, 4);
+}
+
 TEST(DicomBadInput, UnknownSeriesOption) {
   TempDir tmp;
   write_series(tmp / "s");

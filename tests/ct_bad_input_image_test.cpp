@@ -379,6 +379,34 @@ TEST(CtBadInputImage, MetaImageHugeDimSizeInATinyFile) {
   EXPECT_THAT(problem(dir / "v.mha"), HasSubstr("v.mha: corrupt: the header declares"));
 }
 
+TEST(CtBadInputImage, MetaImageOverlongHeaderLine) {
+  // vtkmetaio strcpy()s key names into 255-byte fields; such headers never reach it.
+  test::TempDir dir;
+  test::write_file(dir / "v.mha", "ObjectType = Image\nNDims = 3\nCompressedData = True\n" +
+                                      std::string(300, 'K') +
+                                      " = 1\nDimSize = 4 4 2\nElementSpacing = 1 1 1\n"
+                                      "ElementType = MET_SHORT\nElementDataFile = LOCAL\nxx");
+  EXPECT_THAT(problem(dir / "v.mha"),
+              HasSubstr("v.mha: corrupt MetaImage header (a line longer than 255 characters)"));
+}
+
+TEST(CtBadInputImage, VtiCompressedBlockCountBeyondTheFile) {
+  // VTK would allocate a table for the declared block count before reading anything.
+  test::TempDir dir;
+  const uint32_t header[3] = {1000000000u, 32768u, 100u};
+  write_bytes(dir / "c.vti",
+              "<?xml version=\"1.0\"?>\n<VTKFile type=\"ImageData\" version=\"0.1\" "
+              "byte_order=\"LittleEndian\" header_type=\"UInt32\" "
+              "compressor=\"vtkZLibDataCompressor\">\n<ImageData WholeExtent=\"0 19 0 15 0 4\" "
+              "Origin=\"0 0 0\" Spacing=\"1 1 1\">\n<Piece Extent=\"0 19 0 15 0 4\">"
+              "<PointData Scalars=\"s\"><DataArray type=\"Int16\" Name=\"s\" "
+              "format=\"appended\" offset=\"0\"/></PointData></Piece>\n</ImageData>\n"
+              "<AppendedData encoding=\"raw\">\n_",
+              header, sizeof header);
+  EXPECT_THAT(problem(dir / "c.vti"),
+              HasSubstr("c.vti: corrupt: a compressed array declares 1000000000 blocks"));
+}
+
 TEST(CtBadInputImage, VtiXmlGarbage) {
   test::TempDir dir;
   test::write_file(dir / "v.vti",

@@ -7,10 +7,10 @@
 
 // tests/CMakeLists.txt gives this test no VTK include path; VTK's headers find each other by
 // quoted includes, and the libraries come with sawyer::ct_io.
-#include <vtk-9.1/vtkImageData.h>
-#include <vtk-9.1/vtkMetaImageWriter.h>
-#include <vtk-9.1/vtkSmartPointer.h>
-#include <vtk-9.1/vtkXMLImageDataWriter.h>
+#include <vtkImageData.h>
+#include <vtkMetaImageWriter.h>
+#include <vtkSmartPointer.h>
+#include <vtkXMLImageDataWriter.h>
 
 #include <array>
 #include <cmath>

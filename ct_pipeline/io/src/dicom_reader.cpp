@@ -716,28 +716,38 @@ Result<DicomHeader> scan_header(const fs::path& path) {
 
 uint16_t be16(const unsigned char* p) { return static_cast<uint16_t>((p[0] << 8) | p[1]); }
 
-// JPEG and JPEG-LS: walks the marker segments to the first frame header whose marker satisfies
-// `is_sof`; fills precision, height, width and component count.
+// JPEG and JPEG-LS: walks the marker segments from SOI to the first SOS and fills precision,
+// height, width and component count from the one frame header (a marker that satisfies
+// `is_sof`). Strict on purpose: GDCM's libjpeg wrapper asserts when reading the header raised
+// any warning other than a precision mismatch, so a stream with stray bytes between segments,
+// a second frame header, an unknown marker or a JFIF version other than 1.x is refused here.
 bool jpeg_frame_header(const unsigned char* p, size_t n, bool (*is_sof)(unsigned char),
                        int& precision, int& height, int& width, int& components) {
   if (n < 4 || p[0] != 0xff || p[1] != 0xd8) return false;
   size_t pos = 2;
+  bool have_frame = false;
   while (pos + 4 <= n) {
-    if (p[pos] != 0xff) return false;
-    while (pos < n && p[pos] == 0xff) ++pos;  // fill bytes
-    if (pos >= n) return false;
+    if (p[pos] != 0xff) return false;         // stray bytes between segments
+    while (pos < n && p[pos] == 0xff) ++pos;  // fill bytes are allowed
+    if (pos + 3 > n) return false;
     const unsigned char m = p[pos++];
-    if (m == 0xd8 || m == 0x01 || (m >= 0xd0 && m <= 0xd7)) continue;  // no length
-    if (m == 0xd9 || m == 0xda || pos + 2 > n) return false;           // end or scan before a frame
     const size_t len = be16(p + pos);
     if (len < 2 || pos + len > n) return false;
+    if (m == 0xda) return have_frame;  // start of scan: the header is complete
     if (is_sof(m)) {
-      if (len < 8) return false;
+      if (have_frame || len < 8) return false;
       precision = p[pos + 2];
       height = be16(p + pos + 3);
       width = be16(p + pos + 5);
       components = p[pos + 7];
-      return true;
+      have_frame = true;
+    } else if (m == 0xe0 && len >= 7 && std::memcmp(p + pos + 2, "JFIF", 5) == 0) {
+      if (len < 8 || p[pos + 7] != 1) return false;  // JFIF major version
+    } else {
+      // Tables, restart interval, application data, comments, JPEG-LS parameters; nothing else.
+      const bool known = m == 0xc4 || m == 0xcc || m == 0xdb || m == 0xdd || m == 0xfe ||
+                         m == 0xf8 || (m >= 0xe0 && m <= 0xef);
+      if (!known) return false;
     }
     pos += len;
   }
@@ -752,7 +762,8 @@ bool is_jpeg_ls_sof(unsigned char m) { return m == 0xf7; }
 // Empty string when the first fragment's header matches a width x height single-component
 // image; else what is wrong.
 std::string check_codestream(const std::string& ts, const gdcm::SequenceOfFragments& frags,
-                             int width, int height, int bits_allocated) {
+                             int width, int height, int bits_allocated, int& precision) {
+  precision = 0;
   if (frags.GetNumberOfFragments() == 0) return "no pixel data fragments";
   const gdcm::ByteValue* bv = frags.GetFragment(0).GetByteValue();
   if (!bv || bv->GetLength() == 0) return "an empty pixel data fragment";
@@ -782,7 +793,7 @@ std::string check_codestream(const std::string& ts, const gdcm::SequenceOfFragme
     }
     return {};
   }
-  int precision = 0, h = 0, w = 0, c = 0;
+  int h = 0, w = 0, c = 0;
   if (ts == "1.2.840.10008.1.2.4.80" || ts == "1.2.840.10008.1.2.4.81") {
     if (!jpeg_frame_header(p, n, is_jpeg_ls_sof, precision, h, w, c))
       return "no JPEG-LS frame header";
@@ -813,8 +824,8 @@ std::string check_codestream(const std::string& ts, const gdcm::SequenceOfFragme
         ((xsiz - xto + uint64_t{xt} - 1) / xt) * ((ysiz - yto + uint64_t{yt} - 1) / yt);
     if (tiles > 4096) return "the JPEG 2000 stream has too many tiles";
     if (pos + 4 + 38 + 3 > n) return "no JPEG 2000 component size";
-    const int bits = (siz[38] & 0x7f) + 1;
-    return mismatch(static_cast<int>(xsiz - xo), static_cast<int>(ysiz - yo), csiz, bits);
+    precision = (siz[38] & 0x7f) + 1;
+    return mismatch(static_cast<int>(xsiz - xo), static_cast<int>(ysiz - yo), csiz, precision);
   }
   if (!jpeg_frame_header(p, n, is_jpeg_sof, precision, h, w, c)) return "no JPEG frame header";
   return mismatch(w, h, c, precision);
@@ -956,8 +967,7 @@ class SliceDecoder {
   // here by transfer syntax, decodes into host order. Not gdcm::ImageReader / Image::GetBuffer:
   // on a corrupt JPEG stream those fall back to the PVRG codec, which runs the external
   // pvrg-jpeg program on temporary files (and leaks their names), and their checks of the
-  // decoded length are assertions. The decoded pixel format is what the buffer holds (a codec
-  // may report 16 bits stored where the header said 12).
+  // decoded length are assertions.
   Status decode_with_gdcm(const SliceFile& s, int width, int height, PixelLayout& layout) {
     const std::string where = s.path.string();
     const std::string what = ts_name(s.transfer_syntax);
@@ -983,10 +993,19 @@ class SliceDecoder {
       const gdcm::DataElement& pixels = ds.GetDataElement(kPixelDataTag);
       const gdcm::SequenceOfFragments* fragments = pixels.GetSequenceOfFragments();
       if (!fragments) return Error(where, "the " + what + " pixel data is not encapsulated");
-      if (std::string err =
-              check_codestream(s.transfer_syntax, *fragments, width, height, s.bits_allocated);
+      int precision = 0;
+      if (std::string err = check_codestream(s.transfer_syntax, *fragments, width, height,
+                                             s.bits_allocated, precision);
           !err.empty())
         return Error(where, "corrupt " + what + " pixel data: " + err);
+      // Decoded samples are the stored words; the DICOM header says how to read them (bits
+      // stored, high bit, sign), only their container size comes from the decoder.
+      const auto adopt_container = [&](int bits_allocated) {
+        layout.bits_allocated = bits_allocated;
+        layout.bits_stored = std::min(layout.bits_stored, bits_allocated);
+        if (layout.high_bit >= bits_allocated) layout.high_bit = layout.bits_stored - 1;
+        layout.big_endian = false;
+      };
 
       gdcm::PixelFormat pf(1, static_cast<unsigned short>(s.bits_allocated),
                            static_cast<unsigned short>(s.bits_stored),
@@ -1006,11 +1025,7 @@ class SliceDecoder {
         const auto result = decode_jpeg_ls(*fragments, width, height, raw_);
         if (const std::string* err = std::get_if<std::string>(&result))
           return Error(where, "cannot decode the " + what + " pixel data: " + *err);
-        // The samples are the stored words; the DICOM header says how to read them.
-        layout.bits_allocated = std::get<int>(result) > 8 ? 16 : 8;
-        layout.bits_stored = std::min(layout.bits_stored, layout.bits_allocated);
-        if (layout.high_bit >= layout.bits_allocated) layout.high_bit = layout.bits_stored - 1;
-        layout.big_endian = false;
+        adopt_container(std::get<int>(result) > 8 ? 16 : 8);
         return Status::Ok();
       }
       gdcm::DataElement out;
@@ -1038,8 +1053,14 @@ class SliceDecoder {
         decoded = codec.Decode(pixels, out);
         out_pf = codec.GetPixelFormat();
       } else {
+        // GDCM picks its 8-, 12- or 16-bit libjpeg from the pixel format's bits allocated; pick
+        // the one that matches the stream's precision, because a mismatch is a libjpeg warning
+        // and, on some streams, a GDCM assertion.
+        const unsigned short bits = precision <= 8 ? 8 : precision <= 12 ? 12 : 16;
         gdcm::JPEGCodec codec;
         setup(codec);
+        codec.SetPixelFormat(gdcm::PixelFormat(1, bits, bits, static_cast<unsigned short>(bits - 1),
+                                               s.pixel_signed ? 1 : 0));
         decoded = codec.Decode(pixels, out);
         out_pf = codec.GetPixelFormat();
       }
@@ -1048,13 +1069,7 @@ class SliceDecoder {
       if (out_pf.GetSamplesPerPixel() != 1 ||
           (out_pf.GetBitsAllocated() != 8 && out_pf.GetBitsAllocated() != 16))
         return Error(where, "the " + what + " pixel data decodes to an unsupported pixel format");
-      layout.bits_allocated = out_pf.GetBitsAllocated();
-      layout.bits_stored = std::clamp<int>(out_pf.GetBitsStored(), 1, layout.bits_allocated);
-      layout.high_bit = out_pf.GetHighBit();
-      if (layout.high_bit < layout.bits_stored - 1 || layout.high_bit >= layout.bits_allocated)
-        layout.high_bit = layout.bits_stored - 1;
-      layout.pixel_signed = out_pf.GetPixelRepresentation() == 1;
-      layout.big_endian = false;
+      adopt_container(out_pf.GetBitsAllocated());
       const size_t need =
           static_cast<size_t>(width) * height * static_cast<size_t>(layout.bits_allocated / 8);
       if (!bv || bv->GetLength() < need)

@@ -2,12 +2,15 @@
 // name order or as sawyer_stack.json lists them) or one multi-page TIFF, and the writer that
 // produces such stacks for the phantom and the tests. docs/ct_input.md is the user's side of it.
 //
-// Reading keeps one slice in memory: open() checks every file's header (size, pixel type,
-// channels) so a bad stack fails before a long run, and read() decodes one image into a buffer
-// that is reused from slice to slice. Geometry comes from, in this order, the command-line options,
-// the sidecar, and TIFF tags (ImageJ description, resolution tags); HU follow the rules in
-// resolve_rescale().
+// Reading never holds more than a few slices: open() checks every file's header (size, pixel
+// type, channels) so a bad stack fails before a long run; read() decodes one image into buffers
+// reused from slice to slice, while (folder stacks, ascending reads) worker threads decode the
+// next kReadAhead slices. Geometry comes from, in this order, the command-line options, the
+// sidecar, and TIFF tags (ImageJ description, resolution tags); HU follow resolve_rescale().
 #include <OpenImageIO/imageio.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -344,32 +347,54 @@ TagGeometry read_tags(const OIIO::ImageSpec& spec, const fs::path& file) {
 // reader leaks a string each time libpng's read callback hits the end of a truncated file (the
 // error longjmps over it), so truncated files are refused here before OpenImageIO sees them.
 Status check_png_chunks(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return Error(file.string(), "cannot open for reading");
-  std::error_code ec;
-  const uint64_t size = fs::file_size(file, ec);
-  if (ec) return Error(file.string(), "cannot read: " + ec.message());
-  unsigned char sig[8];
-  in.read(reinterpret_cast<char*>(sig), 8);
-  static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (in.gcount() != 8 || std::memcmp(sig, kSig, 8) != 0)
-    return Error(file.string(), "cannot read as PNG (no PNG signature)");
-  uint64_t pos = 8;
-  for (int chunk = 0; chunk < 100000; ++chunk) {
-    unsigned char head[8];
-    in.seekg(static_cast<std::streamoff>(pos));
-    in.read(reinterpret_cast<char*>(head), 8);
-    if (in.gcount() != 8) return Error(file.string(), "truncated PNG (ends without IEND)");
-    const uint64_t length =
-        (uint64_t{head[0]} << 24) | (uint64_t{head[1]} << 16) | (uint64_t{head[2]} << 8) | head[3];
-    if (length > 0x7fffffffu) return Error(file.string(), "corrupt PNG (chunk length)");
-    if (chunk == 0 && (std::memcmp(head + 4, "IHDR", 4) != 0 || length != 13))
-      return Error(file.string(), "corrupt PNG (IHDR is not the first chunk)");
-    pos += 12 + length;  // length, type, data, CRC
-    if (pos > size) return Error(file.string(), "truncated PNG (a chunk runs past the end)");
-    if (std::memcmp(head + 4, "IEND", 4) == 0) return Status::Ok();
+  // pread of 8-byte chunk heads: a stream would refill its buffer after every seek.
+  const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return Error(file.string(), "cannot open for reading");
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    ::close(fd);
+    return Error(file.string(), "cannot read the file size");
   }
-  return Error(file.string(), "corrupt PNG (too many chunks)");
+  const uint64_t size = static_cast<uint64_t>(st.st_size);
+  auto read_at = [&](uint64_t pos, unsigned char* buf, size_t n) {
+    return ::pread(fd, buf, n, static_cast<off_t>(pos)) == static_cast<ssize_t>(n);
+  };
+  Status result = Error(file.string(), "corrupt PNG (too many chunks)");
+  unsigned char sig[8];
+  static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (!read_at(0, sig, 8) || std::memcmp(sig, kSig, 8) != 0) {
+    result = Error(file.string(), "cannot read as PNG (no PNG signature)");
+  } else {
+    uint64_t pos = 8;
+    for (int chunk = 0; chunk < 1000000; ++chunk) {
+      unsigned char head[8];
+      if (!read_at(pos, head, 8)) {
+        result = Error(file.string(), "truncated PNG (ends without IEND)");
+        break;
+      }
+      const uint64_t length = (uint64_t{head[0]} << 24) | (uint64_t{head[1]} << 16) |
+                              (uint64_t{head[2]} << 8) | head[3];
+      if (length > 0x7fffffffu) {
+        result = Error(file.string(), "corrupt PNG (chunk length)");
+        break;
+      }
+      if (chunk == 0 && (std::memcmp(head + 4, "IHDR", 4) != 0 || length != 13)) {
+        result = Error(file.string(), "corrupt PNG (IHDR is not the first chunk)");
+        break;
+      }
+      pos += 12 + length;  // length, type, data, CRC
+      if (pos > size) {
+        result = Error(file.string(), "truncated PNG (a chunk runs past the end)");
+        break;
+      }
+      if (std::memcmp(head + 4, "IEND", 4) == 0) {
+        result = Status::Ok();
+        break;
+      }
+    }
+  }
+  ::close(fd);
+  return result;
 }
 
 // One OpenImageIO reader of a fixed format, reopened for each file: creating readers by format

@@ -157,9 +157,8 @@ class ResampledSource final : public SliceSource {
 };
 
 struct Gap {
-  int after;  // index of the slice before the gap
-  double z0, z1;
-  int missing;  // slices missing (0: uneven but not a missing slice)
+  double z0, z1;  // the positions on either side, relative to the first slice
+  int missing;    // slices missing (0: uneven but not a missing slice)
 };
 
 }  // namespace
@@ -203,9 +202,9 @@ Result<std::unique_ptr<SliceSource>> make_uniform_z(std::unique_ptr<SliceSource>
     const double z1 = z[static_cast<size_t>(i)] - z[0];
     const double d = z1 - z0;
     if (d > options.gap_tolerance * median) {
-      gaps.push_back({i - 1, z0, z1, std::max(1, static_cast<int>(std::lround(d / median)) - 1)});
+      gaps.push_back({z0, z1, std::max(1, static_cast<int>(std::lround(d / median)) - 1)});
     } else if (std::abs(d - median) > kEvenTolerance * median) {
-      gaps.push_back({i - 1, z0, z1, 0});
+      gaps.push_back({z0, z1, 0});
       worst_jitter = std::max(worst_jitter, std::abs(d - median));
       ++jitter_count;
     }

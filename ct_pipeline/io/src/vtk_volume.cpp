@@ -286,6 +286,10 @@ Result<Header> parse_metaimage(const fs::path& file) {
     const std::string key = trim(line.substr(0, eq));
     if (key.empty() || key.find('\0') != std::string::npos)
       return Error(where, "corrupt MetaImage header");
+    // vtkmetaio copies key names into 255-byte fields with strcpy (a stack smash found by
+    // fuzzing), so keys and lines stay well inside that.
+    if (key.size() > 64 || line.size() > 255)
+      return Error(where, "corrupt MetaImage header (a line longer than 255 characters)");
     kv[key] = trim(line.substr(eq + 1));
     if (key == "ElementDataFile") {  // always the last key; the samples may follow
       have_data_file = true;
@@ -594,6 +598,9 @@ Result<Header> parse_nrrd(const fs::path& file) {
   if (h.compressed && h.dims[0] <= 9)
     return Error(where, "gzip NRRD slices " + std::to_string(h.dims[0]) +
                             " pixels wide are not supported (at least 10)");
+  // vtkNrrdReader does not swap bytes of gzip data.
+  if (h.compressed && h.big_endian && scalar_bytes(h.scalar) > 1)
+    return Error(where, "big-endian gzip NRRD is not supported; use raw encoding or little endian");
   if (!data_file.empty()) {
     h.data_file =
         fs::path(data_file).is_absolute() ? fs::path(data_file) : file.parent_path() / data_file;
@@ -682,6 +689,8 @@ class VtkVolumeSource final : public SliceSource {
       return Error(file_.string(), "slice " + std::to_string(i) + ": out of memory");
     } catch (const std::exception& e) {
       return Error(file_.string(), "slice " + std::to_string(i) + ": " + e.what());
+    } catch (...) {
+      return Error(file_.string(), "slice " + std::to_string(i) + ": cannot read the volume");
     }
   }
 
@@ -742,15 +751,16 @@ class VtkVolumeSource final : public SliceSource {
                      (extent_[0] - got[0]);
       float* dst = out.hu.data() + static_cast<size_t>(r) * w;
       for (int c = 0; c < w; ++c) {
+        dst[c] = static_cast<float>(row[c]) * s + b;
         if constexpr (kFloat) {
-          if (!std::isfinite(row[c])) {
+          // Also catches doubles beyond float's range, which become infinite here.
+          if (!std::isfinite(dst[c])) {
             return Error(file_.string(),
                          "slice " + std::to_string(i) + ": value " +
                              (std::isnan(row[c]) ? std::string("NaN") : num(row[c])) +
                              " at pixel (" + std::to_string(c) + ", " + std::to_string(r) + ")");
           }
         }
-        dst[c] = static_cast<float>(row[c]) * s + b;
       }
     }
     return Status::Ok();
@@ -897,7 +907,7 @@ Status check_vti_compression(const fs::path& file, const std::string& xml, size_
       in.read(chunk.data(), static_cast<std::streamsize>(want));
       chunk.resize(static_cast<size_t>(in.gcount()));
       bytes = appended_encoding == "base64" ? base64_decode(chunk, 3 * word) : chunk;
-    } else if (format == "binary") {
+    } else if (format != "ascii") {  // "binary", and what VTK takes for it (any other word)
       size_t text = xml.find('>', tag);
       if (text == std::string::npos) return Error(where, "corrupt VTK image file (DataArray)");
       ++text;

@@ -23,9 +23,9 @@ namespace sawyer::ct {
 
 struct WriteOptions {
   Format format = Format::kDicom;
-  // Stored value = round((HU - intercept) / slope), clamped to the stored type's range.
-  // DICOM: signed 16-bit with slope 1, intercept 0 unless told otherwise; image stacks:
-  // unsigned 16-bit (8-bit with bits_stored = 8) with slope 1, intercept -1024 by default.
+  // Stored value = round((HU - intercept) / slope), clamped to the stored type's range: signed
+  // 16-bit for DICOM, unsigned 16-bit for image stacks (8-bit with bits_stored = 8). The default
+  // intercept -1024 puts air at stored 0 in every format; the phantom asks DICOM for 0.
   double rescale_slope = 1.0;
   double rescale_intercept = -1024.0;
   int bits_stored = 16;

@@ -100,7 +100,7 @@ struct OpenOptions {
   // Image stacks: spacing from the command line; overrides the sidecar.
   std::optional<double> pixel_spacing;  // mm, x and y
   std::optional<double> slice_spacing;  // mm
-  // Image stacks: stored value -> HU, overrides the sidecar.
+  // Image stacks and volume files: stored value -> HU, overrides the sidecar / file.
   std::optional<double> rescale_slope;
   std::optional<double> rescale_intercept;
   ZPolicy z_policy = ZPolicy::kResample;
