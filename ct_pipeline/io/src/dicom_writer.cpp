@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "readers.h"
+#include "sidecar.h"
 
 namespace sawyer::ct::detail {
 
@@ -107,17 +108,14 @@ Vec3 cross(Vec3 a, Vec3 b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 
-fs::path temp_sibling(const fs::path& dir) {
-  std::mt19937_64 rng{std::random_device{}()};
-  std::ostringstream name;
-  name << "." << dir.filename().string() << ".tmp" << std::hex << rng();
-  return (dir.parent_path().empty() ? fs::path(".") : dir.parent_path()) / name.str();
-}
-
 class DicomSeriesWriter final : public SliceSink {
  public:
-  DicomSeriesWriter(fs::path out, fs::path tmp, const VolumeGeometry& g, const WriteOptions& o)
-      : out_(std::move(out)), tmp_(std::move(tmp)), geometry_(g), options_(o) {
+  DicomSeriesWriter(StagingDir staging, const VolumeGeometry& g, const WriteOptions& o)
+      : staging_(std::move(staging)),
+        out_(staging_.out()),
+        tmp_(staging_.path()),
+        geometry_(g),
+        options_(o) {
     const Vec3 row{g.orientation[0], g.orientation[1], g.orientation[2]};
     const Vec3 col{g.orientation[3], g.orientation[4], g.orientation[5]};
     normal_ = cross(row, col).normalized();
@@ -126,13 +124,6 @@ class DicomSeriesWriter final : public SliceSink {
     stored_max_ = (1 << (bits - 1)) - 1;
     build_template(bits);
     stored_.resize(static_cast<size_t>(g.width) * g.height);
-  }
-
-  ~DicomSeriesWriter() override {
-    if (!committed_) {
-      std::error_code ec;
-      fs::remove_all(tmp_, ec);
-    }
   }
 
   Status write(const Slice& slice) override {
@@ -193,25 +184,8 @@ class DicomSeriesWriter final : public SliceSink {
     if (options_.before_commit) {
       if (Status st = options_.before_commit(tmp_); !st) return st;
     }
-    std::error_code ec;
-    if (fs::exists(out_, ec)) {
-      // A folder cannot be renamed over a non-empty one: move the old one aside first, and back
-      // if the second rename fails.
-      const fs::path old = temp_sibling(out_);
-      fs::rename(out_, old, ec);
-      if (ec) return Error(out_.string(), "cannot replace the existing folder: " + ec.message());
-      fs::rename(tmp_, out_, ec);
-      if (ec) {
-        std::error_code ec2;
-        fs::rename(old, out_, ec2);
-        return Error(out_.string(), "cannot move the written folder into place: " + ec.message());
-      }
-      fs::remove_all(old, ec);
-    } else {
-      fs::rename(tmp_, out_, ec);
-      if (ec)
-        return Error(out_.string(), "cannot move the written folder into place: " + ec.message());
-    }
+    // The staging folder removes itself unless committed.
+    if (Status st = staging_.commit(); !st) return st;
     committed_ = true;
     return Status::Ok();
   }
@@ -290,6 +264,7 @@ class DicomSeriesWriter final : public SliceSink {
     return Status::Ok();
   }
 
+  StagingDir staging_;
   fs::path out_;
   fs::path tmp_;
   VolumeGeometry geometry_;
@@ -330,14 +305,9 @@ Result<std::unique_ptr<SliceSink>> create_dicom_writer(const fs::path& out,
       std::abs(dot(row, col)) > 1e-3)
     return Error(where, "orientation must be two orthogonal unit vectors");
 
-  std::error_code ec;
-  const fs::path parent = out.parent_path().empty() ? fs::path(".") : out.parent_path();
-  fs::create_directories(parent, ec);
-  if (ec) return Error(parent.string(), "cannot create folder: " + ec.message());
-  const fs::path tmp = temp_sibling(out);
-  fs::create_directories(tmp, ec);
-  if (ec) return Error(where, "cannot create a temporary folder: " + ec.message());
-  return std::unique_ptr<SliceSink>(new DicomSeriesWriter(out, tmp, geometry, options));
+  Result<StagingDir> staging = StagingDir::create(out);
+  if (!staging) return staging.error();
+  return std::unique_ptr<SliceSink>(new DicomSeriesWriter(std::move(staging).value(), geometry, options));
 }
 
 }  // namespace sawyer::ct::detail
