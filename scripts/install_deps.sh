@@ -7,7 +7,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev
-  libopencv-dev libvtk9-dev libopenimageio-dev openimageio-tools
+  libopencv-dev libvtk9-dev libopenimageio-dev openimageio-tools libdeflate-dev
   libglfw3-dev libceres-dev libgdcm-dev libgdcm-tools libsqlite3-dev libcairo2-dev libimgui-dev
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
 )

@@ -5,9 +5,15 @@
 #include <OpenImageIO/imageio.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <libdeflate.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -56,6 +62,294 @@ bool has_note(const SliceSource& src, const std::string& text) {
   for (const std::string& n : src.notes())
     if (n.find(text) != std::string::npos) return true;
   return false;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The grey PNG fast path (png_fast.cpp) against OpenImageIO
+
+// Samples as OpenImageIO decodes them (the reference for the fast path), in the file's own type.
+std::vector<float> oiio_samples(const fs::path& file) {
+  auto in = OIIO::ImageInput::open(file.string());
+  EXPECT_TRUE(in) << OIIO::geterror();
+  if (!in) return {};
+  const OIIO::ImageSpec spec = in->spec();
+  const size_t n = static_cast<size_t>(spec.width) * spec.height;
+  std::vector<float> px(n);
+  if (spec.format == OIIO::TypeDesc::UINT8) {
+    std::vector<uint8_t> raw(n);
+    EXPECT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT8, raw.data())) << in->geterror();
+    std::copy(raw.begin(), raw.end(), px.begin());
+  } else {
+    std::vector<uint16_t> raw(n);
+    EXPECT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT16, raw.data())) << in->geterror();
+    std::copy(raw.begin(), raw.end(), px.begin());
+  }
+  in->close();
+  return px;
+}
+
+std::string file_bytes(const fs::path& file) {
+  std::ifstream f(file, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+// Stored values as the stack reader returns them (slope 1, intercept 0).
+OpenOptions raw_values() {
+  OpenOptions o;
+  o.pixel_spacing = 0.5;
+  o.slice_spacing = 1.0;
+  o.rescale_slope = 1.0;
+  o.rescale_intercept = 0.0;
+  return o;
+}
+
+void expect_stack_matches_oiio(const fs::path& dir, const std::vector<fs::path>& files) {
+  auto src = open_ok(dir, raw_values());
+  ASSERT_TRUE(src);
+  ASSERT_EQ(src->geometry().slice_count(), static_cast<int>(files.size()));
+  Slice s;
+  for (size_t i = 0; i < files.size(); ++i) {
+    Status st = src->read(static_cast<int>(i), s);
+    ASSERT_TRUE(st.ok()) << st.error().message();
+    const std::vector<float> want = oiio_samples(files[i]);
+    ASSERT_EQ(s.hu.size(), want.size());
+    size_t bad = 0;
+    for (size_t k = 0; k < want.size(); ++k) bad += s.hu[k] != want[k];
+    EXPECT_EQ(bad, 0u) << files[i] << ": " << bad << " samples differ from OpenImageIO";
+  }
+}
+
+// The filter type byte of every row of a PNG (which libpng chose), found by inflating its IDATs.
+std::set<int> filter_types(const fs::path& file, int w, int h, int bytes_per_sample) {
+  const std::string b = file_bytes(file);
+  std::string z;
+  for (size_t pos = 8; pos + 12 <= b.size();) {
+    const auto* p = reinterpret_cast<const unsigned char*>(b.data() + pos);
+    const size_t len = (size_t{p[0]} << 24) | (size_t{p[1]} << 16) | (size_t{p[2]} << 8) | p[3];
+    if (b.compare(pos + 4, 4, "IDAT") == 0) z += b.substr(pos + 8, len);
+    pos += 12 + len;
+  }
+  const size_t stride = 1 + static_cast<size_t>(w) * bytes_per_sample;
+  std::vector<unsigned char> rows(stride * h);
+  libdeflate_decompressor* d = libdeflate_alloc_decompressor();
+  const libdeflate_result r =
+      libdeflate_zlib_decompress(d, z.data(), z.size(), rows.data(), rows.size(), nullptr);
+  libdeflate_free_decompressor(d);
+  EXPECT_EQ(r, LIBDEFLATE_SUCCESS) << file;
+  std::set<int> types;
+  for (int y = 0; y < h; ++y) types.insert(rows[y * stride]);
+  return types;
+}
+
+// Images that lead libpng's adaptive filter choice to different filters: noise, gradients
+// along x, y and both, flat areas, and rows alternating between them.
+std::vector<uint16_t> filter_exercise(int w, int h, int kind, uint16_t max) {
+  std::vector<uint16_t> px(static_cast<size_t>(w) * h);
+  uint32_t seed = 12345u + kind;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      seed = seed * 1664525u + 1013904223u;
+      const uint32_t noise = seed >> 8;
+      uint32_t v = 0;
+      switch ((kind + y / 7) % 5) {
+        case 0:
+          v = noise;
+          break;
+        case 1:
+          v = x * 37u;
+          break;
+        case 2:
+          v = y * 53u + (noise & 3);
+          break;
+        case 3:
+          v = (x + y) * 29u + (noise & 1);
+          break;
+        case 4:
+          v = 1000u + ((x / 5) % 2) * 7u;
+          break;
+      }
+      px[static_cast<size_t>(y) * w + x] = static_cast<uint16_t>(v % (max + 1u));
+    }
+  }
+  return px;
+}
+
+TEST(CtStack, PngFastPathMatchesOpenImageIOFor16Bit) {
+  test::TempDir dir;
+  const int w = 97, h = 70;
+  std::vector<fs::path> files;
+  std::set<int> used;
+  for (int kind = 0; kind < 5; ++kind) {
+    files.push_back(dir / numbered("s", kind + 1, ".png"));
+    write_image(files.back(), w, h, 1, OIIO::TypeDesc::UINT16, filter_exercise(w, h, kind, 65535));
+    const std::set<int> t = filter_types(files.back(), w, h, 2);
+    used.insert(t.begin(), t.end());
+  }
+  EXPECT_GE(used.size(), 3u) << "libpng chose too few filter types to be a test";
+  expect_stack_matches_oiio(dir.path(), files);
+}
+
+TEST(CtStack, PngFastPathMatchesOpenImageIOFor8Bit) {
+  test::TempDir dir;
+  const int w = 61, h = 75;
+  std::vector<fs::path> files;
+  std::set<int> used;
+  for (int kind = 0; kind < 5; ++kind) {
+    const std::vector<uint16_t> v = filter_exercise(w, h, kind, 255);
+    files.push_back(dir / numbered("s", kind + 1, ".png"));
+    write_image(files.back(), w, h, 1, OIIO::TypeDesc::UINT8,
+                std::vector<uint8_t>(v.begin(), v.end()));
+    const std::set<int> t = filter_types(files.back(), w, h, 1);
+    used.insert(t.begin(), t.end());
+  }
+  EXPECT_GE(used.size(), 3u) << "libpng chose too few filter types to be a test";
+  expect_stack_matches_oiio(dir.path(), files);
+}
+
+// A hand-built grey PNG: `rows` are the filtered rows (filter byte first), compressed into a
+// zlib stream that is split over two IDAT chunks; zlib_cut/zlib_flip damage that stream.
+std::string build_png(int w, int h, int bits, const std::vector<unsigned char>& rows,
+                      size_t zlib_cut = 0, long zlib_flip = -1) {
+  libdeflate_compressor* c = libdeflate_alloc_compressor(6);
+  std::string z(libdeflate_zlib_compress_bound(c, rows.size()), '\0');
+  z.resize(libdeflate_zlib_compress(c, rows.data(), rows.size(), z.data(), z.size()));
+  libdeflate_free_compressor(c);
+  if (zlib_cut) z.resize(z.size() - zlib_cut);
+  if (zlib_flip >= 0) z[zlib_flip] = static_cast<char>(z[zlib_flip] ^ 0x5a);
+  auto be32 = [](uint32_t v) {
+    return std::string{static_cast<char>(v >> 24), static_cast<char>(v >> 16),
+                       static_cast<char>(v >> 8), static_cast<char>(v)};
+  };
+  auto chunk = [&](const char* type, const std::string& data) {
+    const std::string td = type + data;
+    return be32(static_cast<uint32_t>(data.size())) + td +
+           be32(libdeflate_crc32(0, td.data(), td.size()));
+  };
+  std::string ihdr = be32(w) + be32(h);
+  ihdr += {static_cast<char>(bits), 0, 0, 0, 0};
+  const size_t half = z.size() / 2;
+  return std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) +
+         chunk("IDAT", z.substr(0, half)) + chunk("IDAT", z.substr(half)) + chunk("IEND", "");
+}
+
+// Filters `px` (big-endian samples, bpp bytes per pixel) row by row with the given filter
+// types, the encoder's side of the PNG filters.
+std::vector<unsigned char> filter_rows(const std::vector<unsigned char>& px, int w, int h, int bpp,
+                                       const std::vector<int>& filters) {
+  const size_t row = static_cast<size_t>(w) * bpp;
+  std::vector<unsigned char> out;
+  for (int y = 0; y < h; ++y) {
+    const int f = filters[y];
+    out.push_back(static_cast<unsigned char>(f));
+    const unsigned char* cur = px.data() + y * row;
+    for (size_t i = 0; i < row; ++i) {
+      const int a = i >= static_cast<size_t>(bpp) ? cur[i - bpp] : 0;
+      const int b = y > 0 ? cur[i - row] : 0;
+      const int c = y > 0 && i >= static_cast<size_t>(bpp) ? cur[i - row - bpp] : 0;
+      int pred = 0;
+      if (f == 1) pred = a;
+      if (f == 2) pred = b;
+      if (f == 3) pred = (a + b) / 2;
+      if (f == 4) {
+        const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+        pred = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+      }
+      out.push_back(static_cast<unsigned char>(cur[i] - pred));
+    }
+  }
+  return out;
+}
+
+struct HandBuilt {
+  std::vector<uint16_t> values;     // the samples
+  std::vector<unsigned char> rows;  // filtered rows, every filter type used
+};
+
+HandBuilt hand_built(int w, int h, int bits) {
+  HandBuilt hb;
+  const int bpp = bits / 8;
+  std::vector<unsigned char> px;
+  uint32_t seed = 99;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      seed = seed * 1664525u + 1013904223u;
+      // Smooth plus noise, so that every predictor has carries and wrap-arounds to get right.
+      const uint32_t v = (x * 411u + y * 977u + (seed >> 20)) % (bits == 8 ? 256u : 65536u);
+      hb.values.push_back(static_cast<uint16_t>(v));
+      if (bpp == 2) px.push_back(static_cast<unsigned char>(v >> 8));
+      px.push_back(static_cast<unsigned char>(v));
+    }
+  }
+  std::vector<int> filters;
+  for (int y = 0; y < h; ++y) filters.push_back((y * 3 + y / 5) % 5);  // each type after each
+  hb.rows = filter_rows(px, w, h, bpp, filters);
+  return hb;
+}
+
+TEST(CtStack, PngFastPathUndoesEveryFilterType) {
+  for (int bits : {8, 16}) {
+    SCOPED_TRACE(bits);
+    test::TempDir dir;
+    const int w = 23, h = 40;
+    const HandBuilt hb = hand_built(w, h, bits);
+    const std::vector<fs::path> files = {dir / "a1.png", dir / "a2.png"};
+    for (const fs::path& f : files) test::write_file(f, build_png(w, h, bits, hb.rows));
+    EXPECT_EQ(filter_types(files[0], w, h, bits / 8), (std::set<int>{0, 1, 2, 3, 4}));
+    expect_stack_matches_oiio(dir.path(), files);
+    auto src = open_ok(dir.path(), raw_values());
+    ASSERT_TRUE(src);
+    Slice s;
+    ASSERT_TRUE(src->read(1, s).ok());
+    for (size_t k = 0; k < hb.values.size(); ++k)
+      ASSERT_EQ(s.hu[k], static_cast<float>(hb.values[k])) << "sample " << k;
+  }
+}
+
+// The message of the first failing read of a two-slice stack whose second slice is `bad`.
+std::string read_problem(const fs::path& dir, const std::string& good, const std::string& bad) {
+  test::write_file(dir / "b1.png", good);
+  test::write_file(dir / "b2.png", bad);
+  auto r = open_ct(dir, raw_values());
+  if (!r.ok()) return r.error().message();
+  Slice s;
+  for (int i = 0; i < 2; ++i) {
+    Status st = r.value()->read(i, s);
+    if (!st) return st.error().message();
+  }
+  ADD_FAILURE() << "read without complaint";
+  return "";
+}
+
+TEST(CtStack, PngFastPathRefusesDamagedImageData) {
+  for (int bits : {8, 16}) {
+    SCOPED_TRACE(bits);
+    test::TempDir dir;
+    const int w = 30, h = 20;
+    const HandBuilt hb = hand_built(w, h, bits);
+    const std::string good = build_png(w, h, bits, hb.rows);
+    const std::string expected = (dir / "b2.png").string() + ": corrupt or truncated image data";
+
+    // Truncated compressed stream (the chunks themselves are intact).
+    EXPECT_THAT(read_problem(dir.path(), good, build_png(w, h, bits, hb.rows, 40)),
+                HasSubstr(expected));
+    // A damaged byte inside the stream: bad data or a wrong Adler-32.
+    EXPECT_THAT(read_problem(dir.path(), good, build_png(w, h, bits, hb.rows, 0, 30)),
+                HasSubstr(expected));
+    // Too few and too many rows for the header's size.
+    std::vector<unsigned char> short_rows(hb.rows.begin(), hb.rows.end() - (1 + w * bits / 8));
+    EXPECT_THAT(read_problem(dir.path(), good, build_png(w, h, bits, short_rows)),
+                HasSubstr(expected));
+    std::vector<unsigned char> long_rows = hb.rows;
+    long_rows.insert(long_rows.end(), hb.rows.begin(), hb.rows.begin() + 1 + w * bits / 8);
+    EXPECT_THAT(read_problem(dir.path(), good, build_png(w, h, bits, long_rows)),
+                HasSubstr(expected));
+    // Filter type 5 on row 7.
+    std::vector<unsigned char> bad_filter = hb.rows;
+    bad_filter[7 * (1 + w * bits / 8)] = 5;
+    const std::string msg = read_problem(dir.path(), good, build_png(w, h, bits, bad_filter));
+    EXPECT_THAT(msg, HasSubstr(expected));
+    EXPECT_THAT(msg, HasSubstr("filter type 5"));
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "cmd_phantom.h"
+#include "cmd_scan.h"
 #include "ct_options.h"
 #include "log_source.h"
 #include "sawyer/model/log_json.h"
@@ -132,6 +133,8 @@ int main(int argc, char** argv) {
 
   std::function<int()> run_phantom;
   app::add_phantom_command(app, run_phantom);
+  std::function<int()> run_scan;
+  app::add_scan_command(app, run_scan);
 
   try {
     app.parse(argc, argv);
@@ -142,6 +145,7 @@ int main(int argc, char** argv) {
   if (*info) return cmd_info(info_in, info_ct);
   if (*convert) return cmd_convert(conv_in, conv_out, conv_format);
   if (run_phantom) return run_phantom();
+  if (run_scan) return run_scan();
   if (*generate)
     return cmd_generate(gen_species, gen_seed, gen_length_m, gen_top_mm, gen_position, gen_out);
   return 0;

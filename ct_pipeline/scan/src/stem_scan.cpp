@@ -1,0 +1,288 @@
+// The stem pass: read every slice once, track the pith, measure contour and heartwood on worker
+// threads, smooth the pith along z, re-centre, assemble the Stem.
+#include "sawyer/ct/stem_scan.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+namespace sawyer::ct {
+
+namespace {
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const size_t m = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + m, v.end());
+  return v[m];
+}
+
+// Fills invalid entries of a circular row by linear interpolation between the nearest valid
+// entries on either side. Returns false when no entry is valid.
+bool fill_circular(std::vector<double>& row, const std::vector<bool>& valid) {
+  const int n = static_cast<int>(row.size());
+  int first = -1;
+  for (int k = 0; k < n; ++k)
+    if (valid[k]) {
+      first = k;
+      break;
+    }
+  if (first < 0) return false;
+  int prev = first;
+  for (int step = 1; step <= n; ++step) {
+    const int k = (first + step) % n;
+    if (!valid[k]) continue;
+    const int gap = (k - prev + n) % n;
+    for (int j = 1; j < gap; ++j) {
+      const double t = static_cast<double>(j) / gap;
+      row[(prev + j) % n] = (1 - t) * row[prev] + t * row[k];
+    }
+    prev = k;
+  }
+  return true;
+}
+
+// A bounded queue of slices for the contour workers.
+struct Job {
+  int index;
+  Slice slice;
+  Vec2 pith;
+};
+
+class JobQueue {
+ public:
+  explicit JobQueue(size_t capacity) : capacity_(capacity) {}
+  void push(Job job) {
+    std::unique_lock<std::mutex> lock(m_);
+    not_full_.wait(lock, [&] { return q_.size() < capacity_; });
+    q_.push_back(std::move(job));
+    not_empty_.notify_one();
+  }
+  bool pop(Job& job) {
+    std::unique_lock<std::mutex> lock(m_);
+    not_empty_.wait(lock, [&] { return !q_.empty() || closed_; });
+    if (q_.empty()) return false;
+    job = std::move(q_.front());
+    q_.pop_front();
+    not_full_.notify_one();
+    return true;
+  }
+  void close() {
+    std::lock_guard<std::mutex> lock(m_);
+    closed_ = true;
+    not_empty_.notify_all();
+  }
+
+ private:
+  std::mutex m_;
+  std::condition_variable not_full_, not_empty_;
+  std::deque<Job> q_;
+  size_t capacity_;
+  bool closed_ = false;
+};
+
+}  // namespace
+
+std::vector<Vec2> smooth_pith(const std::vector<PithResult>& raw, int half_window,
+                              double outlier_mm, std::vector<bool>* outlier) {
+  const int n = static_cast<int>(raw.size());
+  const int h = std::max(half_window, 1);
+  std::vector<Vec2> med(n), cleaned(n), out(n);
+  if (outlier) outlier->assign(n, false);
+  for (int i = 0; i < n; ++i) {
+    std::vector<double> xs, ys;
+    for (int j = std::max(0, i - h); j <= std::min(n - 1, i + h); ++j) {
+      if (!raw[j].found) continue;
+      xs.push_back(raw[j].pith_mm.x);
+      ys.push_back(raw[j].pith_mm.y);
+    }
+    med[i] = xs.empty() ? Vec2{} : Vec2{median_of(xs), median_of(ys)};
+    const bool have = !xs.empty();
+    const bool bad = !raw[i].found || (raw[i].pith_mm - med[i]).norm() > outlier_mm;
+    cleaned[i] = bad ? med[i] : raw[i].pith_mm;
+    if (outlier && raw[i].found && bad && have) (*outlier)[i] = true;
+  }
+  for (int i = 0; i < n; ++i) {
+    Vec2 acc{};
+    int c = 0;
+    for (int j = std::max(0, i - h); j <= std::min(n - 1, i + h); ++j) {
+      acc = acc + cleaned[j];
+      ++c;
+    }
+    out[i] = (1.0 / c) * acc;
+  }
+  return out;
+}
+
+void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& radius,
+                      std::vector<bool>& valid) {
+  const int n = static_cast<int>(radius.size());
+  if (n == 0 || (from - to).norm() < 1e-9) return;
+  // Points of the contour in the slice plane, then their azimuth and distance around `to`.
+  struct Polar {
+    double w, r;
+  };
+  std::vector<Polar> pts;
+  pts.reserve(n);
+  for (int k = 0; k < n; ++k) {
+    if (!valid[k]) continue;
+    const double w = kTwoPi * k / n;
+    const Vec2 p{from.x + radius[k] * std::cos(w), from.y + radius[k] * std::sin(w)};
+    const Vec2 d = p - to;
+    pts.push_back({wrap_angle(std::atan2(d.y, d.x)), d.norm()});
+  }
+  std::vector<double> out(n, 0.0);
+  std::vector<bool> ok(n, false);
+  if (pts.size() < 2) {
+    radius = out;
+    valid = ok;
+    return;
+  }
+  std::sort(pts.begin(), pts.end(), [](const Polar& a, const Polar& b) { return a.w < b.w; });
+  // Linear interpolation in azimuth between consecutive contour points (circular). A gap wider
+  // than 3 angular steps was a run of invalid angles: keep it invalid.
+  const double max_gap = 3.0 * kTwoPi / n + 1e-9;
+  const size_t m = pts.size();
+  for (int k = 0; k < n; ++k) {
+    const double w = kTwoPi * k / n;
+    auto it = std::lower_bound(pts.begin(), pts.end(), w,
+                               [](const Polar& a, double v) { return a.w < v; });
+    const Polar& b = it == pts.end() ? pts.front() : *it;
+    const Polar& a = it == pts.begin() ? pts[m - 1] : *(it - 1);
+    double span = b.w - a.w;
+    if (span <= 0) span += kTwoPi;
+    double t = w - a.w;
+    if (t < 0) t += kTwoPi;
+    if (span > max_gap) continue;
+    out[k] = a.r + (b.r - a.r) * (span > 0 ? t / span : 0.0);
+    ok[k] = true;
+  }
+  radius = out;
+  valid = ok;
+}
+
+Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
+                           const std::function<void(int, int)>& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const VolumeGeometry& g = source.geometry();
+  const int n = g.slice_count();
+  StemScan scan;
+  scan.slices.resize(n);
+  int threads = options.threads > 0 ? options.threads
+                                    : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, 16);
+  scan.threads = threads;
+
+  // Workers measure contour and heartwood; the reading thread tracks the pith (it needs the
+  // previous slice's answer) and feeds them.
+  JobQueue queue(static_cast<size_t>(2 * threads));
+  std::vector<std::thread> workers;
+  for (int t = 0; t < threads; ++t) {
+    workers.emplace_back([&] {
+      Job job;
+      while (queue.pop(job)) {
+        StemSliceRecord& rec = scan.slices[job.index];
+        if (!rec.pith_raw.found) continue;
+        rec.contour = detect_contour(job.slice, g, job.pith, options.contour);
+        rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, options.heartwood);
+      }
+    });
+  }
+  Status status = Status::Ok();
+  const Vec2* prior = nullptr;
+  Vec2 last{};
+  for (int i = 0; i < n; ++i) {
+    Job job;
+    job.index = i;
+    status = source.read(i, job.slice);
+    if (!status) break;
+    StemSliceRecord& rec = scan.slices[i];
+    rec.z = g.z[i];
+    rec.pith_raw = detect_pith(job.slice, g, options.pith, prior);
+    if (prior && (!rec.pith_raw.found || rec.pith_raw.confidence < 0.05)) {
+      // Lost the track (a crack, a knot whorl): try again over the whole slice.
+      PithResult fresh = detect_pith(job.slice, g, options.pith, nullptr);
+      if (fresh.found && fresh.confidence > rec.pith_raw.confidence) rec.pith_raw = fresh;
+    }
+    if (rec.pith_raw.found) {
+      last = rec.pith_raw.pith_mm;
+      prior = &last;
+    }
+    job.pith = rec.pith_raw.pith_mm;
+    queue.push(std::move(job));
+    if (progress) progress(i + 1, n);
+  }
+  queue.close();
+  for (auto& w : workers) w.join();
+  if (!status) return status.error();
+
+  std::vector<PithResult> raw(n);
+  int found = 0;
+  for (int i = 0; i < n; ++i) {
+    raw[i] = scan.slices[i].pith_raw;
+    found += raw[i].found;
+  }
+  if (found == 0) return Error(source.description(), "no log found in any slice");
+  std::vector<bool> outlier;
+  const std::vector<Vec2> smooth =
+      smooth_pith(raw, options.pith_half_window, options.pith_outlier_mm, &outlier);
+  for (int i = 0; i < n; ++i) {
+    StemSliceRecord& rec = scan.slices[i];
+    rec.pith = smooth[i];
+    rec.pith_outlier = outlier[i];
+    if (!rec.pith_raw.found) continue;
+    recentre_contour(rec.pith_raw.pith_mm, rec.pith, rec.contour.radius, rec.contour.valid);
+    if (rec.heartwood.present)
+      recentre_contour(rec.pith_raw.pith_mm, rec.pith, rec.heartwood.radius, rec.heartwood.valid);
+  }
+
+  // The stem covers the slices from the first to the last with a contour.
+  int lo = -1, hi = -1;
+  for (int i = 0; i < n; ++i) {
+    const auto& v = scan.slices[i].contour.valid;
+    if (std::count(v.begin(), v.end(), true) > static_cast<long>(v.size() / 2)) {
+      if (lo < 0) lo = i;
+      hi = i;
+    }
+  }
+  if (lo < 0) return Error(source.description(), "no slice has a closed outer contour");
+  Stem& st = scan.stem;
+  st.z0_mm = g.z[lo];
+  st.dz_mm = g.slice_spacing() > 0 ? g.slice_spacing() : 1.0;
+  st.n_angles = options.contour.n_angles;
+  int heartwood_slices = 0;
+  for (int i = lo; i <= hi; ++i) heartwood_slices += scan.slices[i].heartwood.present;
+  const bool with_heartwood = heartwood_slices * 2 > hi - lo + 1;
+  std::vector<double> last_radius, last_heart;
+  for (int i = lo; i <= hi; ++i) {
+    StemSliceRecord& rec = scan.slices[i];
+    std::vector<double> row = rec.contour.radius;
+    if (row.size() != static_cast<size_t>(st.n_angles) || !fill_circular(row, rec.contour.valid))
+      row = last_radius;  // a slice without a contour between two with one
+    last_radius = row;
+    st.pith.push_back(rec.pith);
+    st.radius.push_back(row);
+    if (with_heartwood) {
+      std::vector<double> h = rec.heartwood.radius;
+      if (!rec.heartwood.present || h.size() != static_cast<size_t>(st.n_angles) ||
+          !fill_circular(h, rec.heartwood.valid))
+        h = last_heart.empty() ? std::vector<double>(st.n_angles, 0.0) : last_heart;
+      last_heart = h;
+      st.heartwood.push_back(h);
+    }
+    std::vector<double> bark;
+    for (size_t k = 0; k < rec.contour.bark_mm.size(); ++k)
+      if (rec.contour.bark_mm[k] > 0) bark.push_back(rec.contour.bark_mm[k]);
+    st.bark_mm.push_back(median_of(bark));
+  }
+  if (std::all_of(st.bark_mm.begin(), st.bark_mm.end(), [](double b) { return b <= 0; }))
+    st.bark_mm.clear();
+  scan.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return scan;
+}
+
+}  // namespace sawyer::ct

@@ -1,0 +1,78 @@
+// Stem analysis of one CT slice (issue 4): where the pith is, the outer contour under bark as a
+// radius per angle around it, and the heartwood/sapwood border. Per-slice detectors here; the
+// tracking along z, smoothing and assembly into a LogModel's Stem live in stem_analysis.h.
+//
+// Frames (DESIGN.md 3): slice pixels (col, row) map to x = col * spacing_x, y = row * spacing_y
+// (mm, relative to the slice's pixel (0, 0)); azimuth omega = atan2(y - pith_y, x - pith_x).
+//
+//   PithResult p = detect_pith(slice, geometry, {}, nullptr);      // no prior: whole slice
+//   PithResult q = detect_pith(next, geometry, {}, &p.pith_mm);    // prior: search near it
+//   ContourResult c = detect_contour(slice, geometry, p.pith_mm, {});
+//   HeartwoodResult h = detect_heartwood(slice, geometry, p.pith_mm, c, {});
+//
+// All functions are pure (no state between calls) and thread-safe; scratch memory is per call
+// unless a Workspace is given.
+#pragma once
+
+#include <vector>
+
+#include "sawyer/core/vec.h"
+#include "sawyer/ct/slice_source.h"
+
+namespace sawyer::ct {
+
+struct PithOptions {
+  // Search radius around the prior (mm) when one is given.
+  double prior_radius_mm = 15.0;
+  // HU threshold separating wood (and bark) from air, used to find the log's extent.
+  double wood_hu = -700.0;
+};
+
+struct PithResult {
+  Vec2 pith_mm;          // sub-pixel
+  double confidence = 0;  // 0..1: how sharply the evidence peaks
+  bool found = false;     // false: no log in the slice (air only, or too small)
+};
+
+PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,
+                       const PithOptions& options, const Vec2* prior_mm);
+
+struct ContourOptions {
+  int n_angles = 360;
+  double wood_hu = -700.0;
+  // Level between wood (wet sapwood, knots) and the inner bark: the under-bark edge is where a
+  // ray from the pith falls through it for the last time with wood inside (about midway
+  // between sapwood, -50 HU, and inner bark, -450 HU).
+  double under_bark_hu = -250.0;
+};
+
+struct ContourResult {
+  // Outer radius under bark (mm) at n_angles equally spaced azimuths, the first at omega = 0;
+  // 0 where no surface was found (then `valid` marks it).
+  std::vector<double> radius;
+  std::vector<bool> valid;
+  // Bark thickness where measurable (mm), else 0.
+  std::vector<double> bark_mm;
+};
+
+ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
+                             const Vec2& pith_mm, const ContourOptions& options);
+
+struct HeartwoodOptions {
+  int n_angles = 360;
+  // Least sapwood-minus-heartwood contrast (HU, slice medians) for a dry core to count as
+  // present.
+  double min_contrast_hu = 150.0;
+};
+
+struct HeartwoodResult {
+  std::vector<double> radius;  // heartwood radius (mm) per azimuth; 0 where none was found
+  std::vector<bool> valid;
+  bool present = false;  // false: no dry core (e.g. a fully wet log)
+};
+
+HeartwoodResult detect_heartwood(const Slice& slice, const VolumeGeometry& geometry,
+                                 const Vec2& pith_mm, const ContourResult& contour,
+                                 const HeartwoodOptions& options);
+
+}  // namespace sawyer::ct

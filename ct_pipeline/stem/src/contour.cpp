@@ -1,0 +1,507 @@
+// Outer contour under bark and heartwood border of one CT slice, by rays cast from the pith
+// (issue 4). See stem_detect.h for the contract.
+//
+// Contour, per ray (n_angles rays, bilinear samples every pixel from the pith outwards, the ray
+// stopped after 10 mm of air):
+//   1. candidates are falling edges going outwards through the wood/bark level (midway between
+//      wet sapwood and inner bark); the outermost candidate whose inside (1-4 mm) looks like
+//      wood (median within the wood range, no bright sample) is the surface. So the bed's belt
+//      (+200 HU) and rails (+2200 HU) are never taken for wood, bark gaps (wood next to air) are
+//      found the same way, and rings of encased bark around dead knots lie inside the surface;
+//   2. sub-pixel: the crossing, at 0.1 mm steps, of the level midway between the wood inside and
+//      the bark (or air) 1 mm outside;
+//   3. bark: from the surface to the first crossing into air, where there is one before anything
+//      bright (the belt touching the bark hides it).
+// Then a robust angular cleanup: angles off a running median by more than 1.5 mm are dropped
+// (knots reaching the surface at a grazing angle, the belt), gaps are filled by interpolation
+// and the result is smoothed with a 5-tap binomial.
+//
+// Heartwood, per ray: walking inwards from 3 mm under the surface, the first point where the
+// (lightly smoothed) profile falls below the level midway between sapwood and heartwood, the
+// slice's levels taken as medians near the surface and near the pith, and stays below it for
+// 5 mm (so the 1 mm bark rings of dead knots are passed over). Knots crossing the heartwood look
+// like sapwood and pull single rays inwards; a robust (Tukey) Fourier fit of order 4 rejects
+// them, and rays off the fit by more than 3 mm take the fit's value.
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <vector>
+
+#include "sawyer/ct/stem_detect.h"
+
+namespace sawyer::ct {
+namespace {
+
+constexpr float kAirHu = -1000.0f;
+// Ray stops after this much air beyond the log.
+constexpr double kAirStopMm = 10.0;
+// A ray's walk starts this far inside the previous ray's edge (from the pith when that fails).
+constexpr double kHintMm = 12.0;
+// Inside a surface candidate: the window checked for wood, mm under the edge.
+constexpr double kInsideNearMm = 0.8, kInsideFarMm = 4.0;
+// Wood range for the inside median, and the brightest sample allowed there (knots are ~0 HU,
+// the belt +200, the rails +2200).
+constexpr double kWoodMinHu = -380.0, kWoodMaxHu = 120.0, kWoodPeakHu = 400.0;
+// Sub-pixel refinement: outside level taken this far beyond the edge; search half-width; step.
+constexpr double kOutsideMm = 1.0, kFineHalfMm = 1.2, kFineStepMm = 0.1;
+// Bark: search this far beyond the surface for air.
+constexpr double kMaxBarkMm = 30.0;
+// Contour cleanup: running median half-window (angles at 360), outlier tolerance, largest gap
+// filled (fraction of the circle), least fraction of angles found for the slice to count.
+constexpr int kMedianHalf = 7;
+constexpr double kOutlierMm = 1.5;
+constexpr double kMaxGapFraction = 0.125;
+constexpr double kMinFoundFraction = 0.2;
+// Heartwood.
+constexpr double kHeartStartMm = 3.0;    // start the inward walk this far under the surface
+constexpr double kHeartPersistMm = 5.0;  // the dry core must stay dry this long inwards
+constexpr double kHeartOutlierMm = 3.0;  // rays off the robust fit by more take the fit
+constexpr int kHeartOrder = 4;           // Fourier order of the robust fit
+constexpr double kTukeyMm = 6.0;         // Tukey biweight constant of the fit
+constexpr int kLevelStride = 4;          // rays used for the slice's HU levels
+constexpr double kHeartStepPx = 2.0;     // step along the rays, pixels
+
+class Sampler {
+ public:
+  Sampler(const Slice& s, const VolumeGeometry& g)
+      : d_(s.hu.data()),
+        w_(s.width),
+        h_(s.height),
+        isx_(1.0 / g.spacing_x),
+        isy_(1.0 / g.spacing_y) {}
+
+  // Bilinear HU at scanner (x, y) mm; air outside the image.
+  float at(double x, double y) const {
+    const double c = x * isx_, r = y * isy_;
+    if (!(c >= 0.0 && r >= 0.0 && c <= w_ - 1 && r <= h_ - 1)) return kAirHu;
+    int c0 = static_cast<int>(c), r0 = static_cast<int>(r);
+    c0 = std::min(c0, w_ - 2);
+    r0 = std::min(r0, h_ - 2);
+    const float fc = static_cast<float>(c - c0), fr = static_cast<float>(r - r0);
+    const float* p = d_ + static_cast<size_t>(r0) * w_ + c0;
+    const float a = p[0] + fc * (p[1] - p[0]);
+    const float b = p[w_] + fc * (p[w_ + 1] - p[w_]);
+    return a + fr * (b - a);
+  }
+
+ private:
+  const float* d_;
+  int w_, h_;
+  double isx_, isy_;
+};
+
+double median_of(std::vector<float>& v) {
+  if (v.empty()) return 0.0;
+  const size_t m = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + m, v.end());
+  return v[m];
+}
+
+bool slice_ok(const Slice& s, const VolumeGeometry& g) {
+  return s.width >= 2 && s.height >= 2 && s.hu.size() == static_cast<size_t>(s.width) * s.height &&
+         g.spacing_x > 0 && g.spacing_y > 0;
+}
+
+// Farthest distance from p to the image's corners (mm).
+double max_reach(const Slice& s, const VolumeGeometry& g, const Vec2& p) {
+  const double X = (s.width - 1) * g.spacing_x, Y = (s.height - 1) * g.spacing_y;
+  const double dx = std::max(std::abs(p.x), std::abs(X - p.x));
+  const double dy = std::max(std::abs(p.y), std::abs(Y - p.y));
+  return std::hypot(dx, dy);
+}
+
+// Drops angles off the circular running median by more than `tol`, fills gaps up to `max_gap`
+// angles by linear interpolation (circularly); longer gaps stay invalid.
+void clean_angles(std::vector<double>& r, std::vector<bool>& valid, int half, double tol,
+                  int max_gap) {
+  const int n = static_cast<int>(r.size());
+  std::vector<float> win;
+  std::vector<bool> keep(valid);
+  for (int k = 0; k < n; ++k) {
+    if (!valid[k]) continue;
+    win.clear();
+    for (int d = -half; d <= half; ++d) {
+      const int j = ((k + d) % n + n) % n;
+      if (valid[j]) win.push_back(static_cast<float>(r[j]));
+    }
+    if (win.size() < 3) {
+      keep[k] = false;
+      continue;
+    }
+    if (std::abs(r[k] - median_of(win)) > tol) keep[k] = false;
+  }
+  valid = keep;
+  // Fill gaps between kept angles.
+  int first = -1;
+  for (int k = 0; k < n; ++k)
+    if (valid[k]) {
+      first = k;
+      break;
+    }
+  if (first < 0) return;
+  int prev = first;
+  for (int step = 1; step <= n; ++step) {
+    const int k = (first + step) % n;
+    if (!valid[k]) continue;
+    const int gap = ((k - prev) % n + n) % n;  // n when only one angle is valid
+    if (gap > 1 && gap - 1 <= max_gap) {
+      for (int g = 1; g < gap; ++g) {
+        const int j = (prev + g) % n;
+        const double t = static_cast<double>(g) / gap;
+        r[j] = (1 - t) * r[prev] + t * r[k];
+        valid[j] = true;
+      }
+    }
+    prev = k;
+  }
+}
+
+// Circular binomial smoothing [1 4 6 4 1] / 16 over runs of valid angles.
+void smooth_angles(std::vector<double>& r, const std::vector<bool>& valid, int passes) {
+  const int n = static_cast<int>(r.size());
+  static constexpr double kW[5] = {1, 4, 6, 4, 1};
+  std::vector<double> out(r);
+  for (int p = 0; p < passes; ++p) {
+    for (int k = 0; k < n; ++k) {
+      if (!valid[k]) continue;
+      double s = 0, w = 0;
+      for (int d = -2; d <= 2; ++d) {
+        const int j = ((k + d) % n + n) % n;
+        if (!valid[j]) continue;
+        s += kW[d + 2] * r[j];
+        w += kW[d + 2];
+      }
+      out[k] = s / w;
+    }
+    r = out;
+  }
+}
+
+// Robust Fourier fit of order `order` to the valid radii (Tukey biweight, IRLS, the order raised
+// step by step from a constant). Returns false when too few angles are valid.
+bool robust_fourier(const std::vector<double>& r, const std::vector<bool>& valid, int order,
+                    std::vector<double>* fit) {
+  const int n = static_cast<int>(r.size());
+  const int m = 2 * order + 1;
+  int count = 0;
+  for (int k = 0; k < n; ++k) count += valid[k] ? 1 : 0;
+  if (count < 2 * m) return false;
+  std::vector<double> basis(static_cast<size_t>(n) * m);
+  for (int k = 0; k < n; ++k) {
+    const double w = kTwoPi * k / n;
+    double* b = &basis[static_cast<size_t>(k) * m];
+    b[0] = 1;
+    for (int o = 1; o <= order; ++o) {
+      b[2 * o - 1] = std::cos(o * w);
+      b[2 * o] = std::sin(o * w);
+    }
+  }
+  std::vector<float> vals;
+  for (int k = 0; k < n; ++k)
+    if (valid[k]) vals.push_back(static_cast<float>(r[k]));
+  std::vector<double> coef(m, 0.0);
+  coef[0] = median_of(vals);
+  std::vector<double> A(static_cast<size_t>(m) * m), rhs(m);
+  for (int o = 1; o <= order; ++o) {
+    const int mm = 2 * o + 1;
+    for (int it = 0; it < 4; ++it) {
+      std::fill(A.begin(), A.end(), 0.0);
+      std::fill(rhs.begin(), rhs.end(), 0.0);
+      for (int k = 0; k < n; ++k) {
+        if (!valid[k]) continue;
+        const double* b = &basis[static_cast<size_t>(k) * m];
+        double f = 0;
+        for (int q = 0; q < mm; ++q) f += coef[q] * b[q];
+        const double u = (r[k] - f) / kTukeyMm;
+        if (std::abs(u) >= 1) continue;
+        const double w = (1 - u * u) * (1 - u * u);
+        for (int q = 0; q < mm; ++q) {
+          rhs[q] += w * b[q] * r[k];
+          for (int s = 0; s <= q; ++s) A[q * m + s] += w * b[q] * b[s];
+        }
+      }
+      // Cholesky solve of the mm x mm system (lower triangle filled).
+      std::vector<double> L(static_cast<size_t>(mm) * mm, 0.0);
+      bool ok = true;
+      for (int q = 0; q < mm && ok; ++q) {
+        for (int s = 0; s <= q; ++s) {
+          double v = A[q * m + s];
+          for (int t = 0; t < s; ++t) v -= L[q * mm + t] * L[s * mm + t];
+          if (q == s) {
+            if (v <= 1e-9) {
+              ok = false;
+              break;
+            }
+            L[q * mm + q] = std::sqrt(v);
+          } else {
+            L[q * mm + s] = v / L[s * mm + s];
+          }
+        }
+      }
+      if (!ok) break;
+      std::vector<double> y(mm);
+      for (int q = 0; q < mm; ++q) {
+        double v = rhs[q];
+        for (int t = 0; t < q; ++t) v -= L[q * mm + t] * y[t];
+        y[q] = v / L[q * mm + q];
+      }
+      for (int q = mm - 1; q >= 0; --q) {
+        double v = y[q];
+        for (int t = q + 1; t < mm; ++t) v -= L[t * mm + q] * coef[t];
+        coef[q] = v / L[q * mm + q];
+      }
+    }
+  }
+  fit->assign(n, 0.0);
+  for (int k = 0; k < n; ++k) {
+    const double* b = &basis[static_cast<size_t>(k) * m];
+    double f = 0;
+    for (int q = 0; q < m; ++q) f += coef[q] * b[q];
+    (*fit)[k] = f;
+  }
+  return true;
+}
+
+}  // namespace
+
+ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
+                             const Vec2& pith_mm, const ContourOptions& options) {
+  assert(options.n_angles > 0);
+  const int n = options.n_angles;
+  ContourResult out;
+  out.radius.assign(n, 0.0);
+  out.valid.assign(n, false);
+  out.bark_mm.assign(n, 0.0);
+  if (!slice_ok(slice, geometry)) return out;
+
+  const Sampler img(slice, geometry);
+  const double h = std::min(geometry.spacing_x, geometry.spacing_y);  // coarse step, mm
+  const double reach = max_reach(slice, geometry, pith_mm);
+  const int air_stop = static_cast<int>(std::ceil(kAirStopMm / h));
+  const int in_near = std::max(1, static_cast<int>(std::floor(kInsideNearMm / h)));
+  const int in_far = std::max(in_near + 2, static_cast<int>(std::ceil(kInsideFarMm / h)));
+  const int fine_n = static_cast<int>(std::lround(2 * kFineHalfMm / kFineStepMm)) + 1;
+  const double air_level = 0.5 * (options.wood_hu + kAirHu);  // bark → air crossing
+  // Wood → bark level: midway between wet sapwood and inner bark, which also lies between
+  // wood and air, so bark gaps are found the same way.
+  const double edge_level = options.under_bark_hu;
+
+  std::vector<float> prof, inside, fine(fine_n);
+  std::vector<double> edge_r(n, 0.0);
+  int found = 0;
+  int hint = 0;  // the previous ray's edge (coarse index): the walk starts kHintMm inside it
+  const int hint_back = static_cast<int>(std::ceil(kHintMm / h));
+  for (int k = 0; k < n; ++k) {
+    const double w = kTwoPi * k / n;
+    const double c = std::cos(w), s = std::sin(w);
+    int j0 = std::max(0, hint - hint_back);
+    int edge = -1, np = 0;
+    double in_level = 0;
+    for (;;) {
+      // Coarse profile outwards from j0 (prof[q] is at r = (j0 + q) h), stopped in air.
+      prof.clear();
+      int air_run = 0;
+      bool seen = false;
+      for (int j = j0; j * h <= reach; ++j) {
+        const double r = j * h;
+        const float v = img.at(pith_mm.x + r * c, pith_mm.y + r * s);
+        prof.push_back(v);
+        if (v < options.wood_hu) {
+          if (seen && ++air_run >= air_stop) break;
+        } else {
+          seen = true;
+          air_run = 0;
+        }
+      }
+      // Outermost falling edge with wood inside.
+      np = static_cast<int>(prof.size());
+      for (int j = np - 2; j >= 1; --j) {
+        if (!(prof[j] >= edge_level && prof[j + 1] < edge_level)) continue;
+        inside.clear();
+        float peak = -1e9f;
+        for (int q = std::max(0, j - in_far); q <= j - in_near; ++q) {
+          inside.push_back(prof[q]);
+          peak = std::max(peak, prof[q]);
+        }
+        if (inside.empty()) continue;
+        const double med = median_of(inside);
+        if (med < kWoodMinHu || med > kWoodMaxHu || peak > kWoodPeakHu) continue;
+        edge = j;
+        in_level = med;
+        break;
+      }
+      // Started from a hint: trust it only with wood well inside the start; else from the pith.
+      if (j0 > 0 && (edge < 0 || edge < in_far + 2 || prof[0] < edge_level)) {
+        j0 = 0;
+        edge = -1;
+        continue;
+      }
+      break;
+    }
+    if (edge < 0) continue;
+    // From here on indices are from the pith.
+    prof.insert(prof.begin(), j0, 0.0f);
+    edge += j0;
+    np += j0;
+    hint = edge;
+    // Sub-pixel: crossing of the level midway between inside and outside.
+    const double rc =
+        edge * h + h * (prof[edge] - edge_level) / std::max(1e-6f, prof[edge] - prof[edge + 1]);
+    const double out_v = std::max<double>(
+        kAirHu, img.at(pith_mm.x + (rc + kOutsideMm) * c, pith_mm.y + (rc + kOutsideMm) * s));
+    const double level = 0.5 * (in_level + out_v);
+    const double r0 = rc - kFineHalfMm;
+    for (int q = 0; q < fine_n; ++q) {
+      const double r = r0 + q * kFineStepMm;
+      fine[q] = img.at(pith_mm.x + r * c, pith_mm.y + r * s);
+    }
+    double best = rc, best_d = 1e9;
+    for (int q = 0; q + 1 < fine_n; ++q) {
+      if (!(fine[q] >= level && fine[q + 1] < level)) continue;
+      const double r =
+          r0 + kFineStepMm * (q + (fine[q] - level) / std::max(1e-6f, fine[q] - fine[q + 1]));
+      if (std::abs(r - rc) < best_d) {
+        best_d = std::abs(r - rc);
+        best = r;
+      }
+    }
+    edge_r[k] = best;
+    out.valid[k] = true;
+    ++found;
+    // Bark: the first crossing into air beyond the surface, unless something bright (the
+    // belt, clutter) comes first.
+    const int jmax = std::min(np - 1, edge + static_cast<int>(std::ceil(kMaxBarkMm / h)));
+    for (int j = edge + 1; j < jmax; ++j) {
+      if (prof[j + 1] >= edge_level) break;
+      if (prof[j] >= air_level && prof[j + 1] < air_level) {
+        const double ro =
+            j * h + h * (prof[j] - air_level) / std::max(1e-6f, prof[j] - prof[j + 1]);
+        out.bark_mm[k] = std::max(0.0, ro - best);
+        break;
+      }
+    }
+  }
+  if (found < kMinFoundFraction * n) {
+    std::fill(out.valid.begin(), out.valid.end(), false);
+    std::fill(out.bark_mm.begin(), out.bark_mm.end(), 0.0);
+    return out;
+  }
+  const std::vector<bool> measured = out.valid;
+  const int half = std::max(2, static_cast<int>(std::lround(kMedianHalf * n / 360.0)));
+  clean_angles(edge_r, out.valid, half, kOutlierMm,
+               static_cast<int>(std::lround(kMaxGapFraction * n)));
+  smooth_angles(edge_r, out.valid, 1);
+  for (int k = 0; k < n; ++k) {
+    out.radius[k] = out.valid[k] ? edge_r[k] : 0.0;
+    if (!out.valid[k] || !measured[k]) out.bark_mm[k] = 0.0;
+  }
+  return out;
+}
+
+HeartwoodResult detect_heartwood(const Slice& slice, const VolumeGeometry& geometry,
+                                 const Vec2& pith_mm, const ContourResult& contour,
+                                 const HeartwoodOptions& options) {
+  assert(options.n_angles > 0);
+  const int n = options.n_angles;
+  HeartwoodResult out;
+  out.radius.assign(n, 0.0);
+  out.valid.assign(n, false);
+  if (!slice_ok(slice, geometry) || contour.radius.empty()) return out;
+  const int nc = static_cast<int>(contour.radius.size());
+
+  // Outer radius at this ray's azimuth, from the contour's (possibly different) angular grid.
+  auto outer_at = [&](int k, double* R) {
+    const double u = static_cast<double>(k) * nc / n;
+    const int a = static_cast<int>(std::floor(u)) % nc, b = (a + 1) % nc;
+    const double t = u - std::floor(u);
+    if (!contour.valid[a] || !contour.valid[b]) return false;
+    *R = (1 - t) * contour.radius[a] + t * contour.radius[b];
+    return true;
+  };
+
+  const Sampler img(slice, geometry);
+  // Step along the rays: two pixels (the transition is 4 mm wide; rays are smoothed in angle).
+  const double h = kHeartStepPx * std::min(geometry.spacing_x, geometry.spacing_y);
+  // Slice levels from every kLevelStride-th ray: sapwood just under the surface, heartwood
+  // around the pith (away from the pith's own knots).
+  std::vector<float> sap, heart;
+  int rays = 0;
+  for (int k = 0; k < n; ++k) {
+    double R;
+    if (!outer_at(k, &R) || R - kHeartStartMm < 8 * h) continue;
+    ++rays;
+    if (k % kLevelStride != 0) continue;
+    const double w = kTwoPi * k / n;
+    const double c = std::cos(w), s = std::sin(w);
+    for (double q = R - 8.0; q <= R - kHeartStartMm; q += h)
+      sap.push_back(img.at(pith_mm.x + q * c, pith_mm.y + q * s));
+    for (double q = 0.15 * R; q <= 0.35 * R; q += h)
+      heart.push_back(img.at(pith_mm.x + q * c, pith_mm.y + q * s));
+  }
+  if (rays < kMinFoundFraction * n || sap.empty() || heart.empty()) return out;
+  const double sap_level = median_of(sap), heart_level = median_of(heart);
+  if (sap_level - heart_level < options.min_contrast_hu) return out;
+  out.present = true;
+  const double level = 0.5 * (sap_level + heart_level);
+  const int persist = std::max(2, static_cast<int>(std::ceil(kHeartPersistMm / h)));
+
+  // Per ray, inwards from kHeartStartMm under the surface: raw[m] is at r = (J - m) h, sampled
+  // as far as the walk needs; p(m) the [1 2 1]-smoothed profile.
+  std::vector<double> r(n, 0.0);
+  std::vector<bool> valid(n, false);
+  std::vector<float> raw, win;
+  for (int k = 0; k < n; ++k) {
+    double R;
+    if (!outer_at(k, &R)) continue;
+    const int J = static_cast<int>(std::floor((R - kHeartStartMm) / h));
+    if (J < 8) continue;
+    const double w = kTwoPi * k / n;
+    const double c = std::cos(w), s = std::sin(w);
+    raw.clear();
+    auto need = [&](int m) {  // raw[0..m] sampled (clamped at the pith)
+      m = std::min(m, J);
+      while (static_cast<int>(raw.size()) <= m) {
+        const double q = (J - static_cast<int>(raw.size())) * h;
+        raw.push_back(img.at(pith_mm.x + q * c, pith_mm.y + q * s));
+      }
+    };
+    auto p = [&](int m) {
+      need(m + 1);
+      if (m <= 0 || m >= J) return raw[m];
+      return 0.25f * (raw[m - 1] + 2 * raw[m] + raw[m + 1]);
+    };
+    if (p(1) < level) continue;  // no sapwood under the surface
+    for (int m = 2; m <= J; ++m) {
+      const float pm = p(m), prev = p(m - 1);
+      if (!(pm < level && prev >= level)) continue;
+      win.clear();
+      for (int q = m; q <= std::min(J, m + persist); ++q) win.push_back(p(q));
+      if (median_of(win) >= level) continue;  // a thin dark ring, not the dry core
+      r[k] = h * ((J - m) + (level - pm) / std::max(1e-6f, prev - pm));
+      valid[k] = true;
+      break;
+    }
+  }
+  std::vector<double> fit;
+  if (!robust_fourier(r, valid, kHeartOrder, &fit)) {
+    out.present = false;
+    return out;
+  }
+  // Rays near the fit keep their own value (smoothed); the rest, and rays without a border,
+  // take the fit.
+  std::vector<bool> near(n, false);
+  for (int k = 0; k < n; ++k) near[k] = valid[k] && std::abs(r[k] - fit[k]) <= kHeartOutlierMm;
+  for (int k = 0; k < n; ++k)
+    if (!near[k]) r[k] = fit[k];
+  std::vector<bool> all(n, true);
+  smooth_angles(r, all, 2);
+  for (int k = 0; k < n; ++k) {
+    double R;
+    const bool has_outer = outer_at(k, &R);
+    out.valid[k] = has_outer && r[k] > 0 && r[k] < R;
+    out.radius[k] = out.valid[k] ? r[k] : 0.0;
+  }
+  return out;
+}
+
+}  // namespace sawyer::ct

@@ -1,0 +1,285 @@
+// Pith detection (issue 4) against phantoms of the bundled logs: detect_pith per slice, the
+// tracker (prior from the previous slice) and the robust z smoothing, compared with the exact
+// pith the phantom reports (Phantom::pith). Accuracy targets of the issue at 512 x 512, 0.8 mm:
+// median <= 0.5 mm, 95th percentile <= 1.5 mm; within 2x with doubled noise, the bed touching
+// the log and 5 % missing slices. Those targets are printed (met / NOT MET), and the asserts are
+// regression bounds of what the detector achieves today. Timings are printed, never asserted.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "sawyer/ct/phantom.h"
+#include "sawyer/ct/pith_track.h"
+#include "sawyer/ct/stem_detect.h"
+#include "sawyer/model/log_json.h"
+#include "sawyer/test/test_util.h"
+
+namespace sawyer::ct {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const size_t i = static_cast<size_t>(pos);
+  const double f = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
+}
+
+struct Stats {
+  double median = 0, p95 = 0, max = 0;
+};
+
+Stats stats(const std::vector<double>& err) {
+  return {percentile(err, 0.5), percentile(err, 0.95), percentile(err, 1.0)};
+}
+
+LogModel load(const std::string& name) {
+  auto log = read_log_json(test::sample_log(name) / "log.json");
+  EXPECT_TRUE(log.ok()) << (log.ok() ? "" : log.error().message());
+  return log.ok() ? log.value() : LogModel{};
+}
+
+struct Section {
+  std::unique_ptr<Phantom> phantom;
+  std::vector<Slice> slices;  // kept slices, in z order
+  std::vector<Vec2> truth;    // exact pith of each kept slice
+};
+
+Section render(const std::string& log_name, double from_mm, double to_mm, PhantomOptions o) {
+  Section s;
+  o.from_mm = from_mm;
+  o.to_mm = to_mm;
+  auto ph = Phantom::create(load(log_name), o);
+  EXPECT_TRUE(ph.ok()) << (ph.ok() ? "" : ph.error().message());
+  if (!ph.ok()) return s;
+  s.phantom = std::move(ph).value();
+  Phantom::Renderer renderer(*s.phantom);
+  for (int i : s.phantom->kept()) {
+    Slice sl;
+    renderer.render(i, sl);
+    s.slices.push_back(std::move(sl));
+    s.truth.push_back(s.phantom->pith(i));
+  }
+  return s;
+}
+
+struct Measured {
+  Stats raw;       // detect_pith without a prior, every slice
+  Stats tracked;   // the tracker (prior from the previous slice)
+  Stats smoothed;  // smooth_pith_track of the tracker's output
+  double ms_no_prior = 0, ms_prior = 0;
+  int not_found = 0;
+};
+
+Measured measure(const Section& s, const std::string& label) {
+  Measured m;
+  const VolumeGeometry& g = s.phantom->geometry();
+  const size_t n = s.slices.size();
+  std::vector<double> e_raw, e_trk, e_smooth;
+  auto t0 = Clock::now();
+  std::vector<PithResult> raw;
+  for (const Slice& sl : s.slices) raw.push_back(detect_pith(sl, g, {}, nullptr));
+  m.ms_no_prior = ms_since(t0) / static_cast<double>(n);
+  PithTracker tracker(g, {});
+  std::vector<PithResult> trk;
+  trk.push_back(tracker.next(s.slices[0]));  // the first slice has no prior: not timed
+  t0 = Clock::now();
+  for (size_t i = 1; i < n; ++i) trk.push_back(tracker.next(s.slices[i]));
+  m.ms_prior = n > 1 ? ms_since(t0) / static_cast<double>(n - 1) : 0;
+  const std::vector<Vec2> smooth = smooth_pith_track(g.z, trk, {});
+  for (size_t i = 0; i < n; ++i) {
+    if (!raw[i].found || !trk[i].found) ++m.not_found;
+    e_raw.push_back(raw[i].found ? (raw[i].pith_mm - s.truth[i]).norm() : 1e9);
+    e_trk.push_back(trk[i].found ? (trk[i].pith_mm - s.truth[i]).norm() : 1e9);
+    e_smooth.push_back(smooth.empty() ? 1e9 : (smooth[i] - s.truth[i]).norm());
+  }
+  m.raw = stats(e_raw);
+  m.tracked = stats(e_trk);
+  m.smoothed = stats(e_smooth);
+  std::printf(
+      "[pith] %-34s %2zu slices | median/p95/max mm: raw %.2f/%.2f/%.2f  tracked %.2f/%.2f/%.2f  "
+      "smoothed %.2f/%.2f/%.2f | ms/slice: no prior %.2f, prior %.2f\n",
+      label.c_str(), n, m.raw.median, m.raw.p95, m.raw.max, m.tracked.median, m.tracked.p95,
+      m.tracked.max, m.smoothed.median, m.smoothed.p95, m.smoothed.max, m.ms_no_prior, m.ms_prior);
+  return m;
+}
+
+// The issue's targets are printed, met or not. The assertions next to them are regression bounds
+// of the current implementation, NOT the issue's targets, which it does not meet yet (single
+// slices err by several mm at 20 HU noise; the z smoothing brings the median to about 1 mm).
+void report_target(const Measured& m, double median, double p95) {
+  const bool met = m.smoothed.median <= median && m.smoothed.p95 <= p95;
+  std::printf("[pith]   issue target median <= %.1f, p95 <= %.1f mm: %s\n", median, p95,
+              met ? "met" : "NOT MET");
+}
+
+PhantomOptions base_options() {
+  PhantomOptions o;
+  o.image_size = 512;
+  o.pixel_mm = 0.8;
+  o.slice_spacing_mm = 5.0;
+  o.seed = 7;
+  o.threads = 1;
+  return o;
+}
+
+// Real spruce geometry (Gran_1), default noise (20 HU), bed under the log.
+TEST(Pith, Gran1SpruceNominal) {
+  const Section s = render("gran1_spruce", 1500, 1560, base_options());
+  ASSERT_EQ(s.slices.size(), 13u);
+  const Measured m = measure(s, "gran1_spruce nominal");
+  EXPECT_EQ(m.not_found, 0);
+  report_target(m, 0.5, 1.5);
+  EXPECT_LE(m.smoothed.median, 2.0);
+  EXPECT_LE(m.smoothed.p95, 4.0);
+}
+
+// Pine through a whorl (5 knots starting at 1293-1313 mm), placed off centre and rolled.
+TEST(Pith, Pine8WhorlOffsetAndRoll) {
+  PhantomOptions o = base_options();
+  o.placement.offset_x_mm = 28;
+  o.placement.offset_y_mm = -20;
+  o.placement.roll_deg = 40;
+  const Section s = render("pine_8", 1285, 1345, o);
+  ASSERT_EQ(s.slices.size(), 13u);
+  const Measured m = measure(s, "pine_8 whorl, offset 28/-20, roll 40");
+  EXPECT_EQ(m.not_found, 0);
+  report_target(m, 0.5, 1.5);
+  EXPECT_LE(m.smoothed.median, 2.0);
+  EXPECT_LE(m.smoothed.p95, 4.0);
+}
+
+// Second spruce, doubled noise, bed touching, 5 % missing slices: within 2x of the targets.
+TEST(Pith, Spruce77DoubledNoiseAndMissingSlices) {
+  PhantomOptions o = base_options();
+  o.noise_hu = 40;
+  o.drop_slices = 1;
+  const Section s = render("spruce_77", 1000, 1100, o);
+  ASSERT_EQ(s.slices.size(), 20u);  // 21 nominal, one dropped
+  ASSERT_EQ(s.phantom->dropped().size(), 1u);
+  const Measured m = measure(s, "spruce_77 noise 40, bed, 1 of 21 dropped");
+  EXPECT_EQ(m.not_found, 0);
+  report_target(m, 1.0, 3.0);
+  EXPECT_LE(m.smoothed.median, 8.0);
+  EXPECT_LE(m.smoothed.p95, 20.0);
+}
+
+// One slice through the pine whorl, just above the knots' start: knots radiate from the pith.
+// No prior, and a prior 10 mm off: both land on the pith.
+TEST(Pith, KnotWhorlSlice) {
+  const Section s = render("pine_8", 1310, 1315, base_options());
+  ASSERT_EQ(s.slices.size(), 2u);
+  const VolumeGeometry& g = s.phantom->geometry();
+  const Slice& slice = s.slices[1];
+  const Vec2 want = s.truth[1];
+  // The slice does cut knots near the pith (the whorl is there).
+  const LogModel truth = s.phantom->truth_log();
+  int knots_here = 0;
+  for (const Knot& k : truth.knots)
+    if (k.z0 <= g.z[1] + 2.5 && k.height_at(std::min(60.0, k.r_end)) >= g.z[1] - 2.5) ++knots_here;
+  EXPECT_GE(knots_here, 3);
+  // Regression bounds of the current detector (the issue asks for far better; see the report).
+  const PithResult a = detect_pith(slice, g, {}, nullptr);
+  ASSERT_TRUE(a.found);
+  EXPECT_LE((a.pith_mm - want).norm(), 5.0);
+  const Vec2 off = want + Vec2{7, -7};
+  const PithResult b = detect_pith(slice, g, {}, &off);
+  ASSERT_TRUE(b.found);
+  EXPECT_LE((b.pith_mm - want).norm(), 5.0);
+  std::printf(
+      "[pith] whorl slice (%d knots): error %.2f mm (no prior), %.2f mm (prior 9.9 mm off)\n",
+      knots_here, (a.pith_mm - want).norm(), (b.pith_mm - want).norm());
+}
+
+Slice air_slice(std::uint64_t seed) {
+  Slice s;
+  s.width = s.height = 512;
+  s.hu.resize(512 * 512);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<float> noise(0.f, 20.f);
+  for (float& v : s.hu) v = -1000.f + noise(rng);
+  return s;
+}
+
+VolumeGeometry geometry_512() {
+  VolumeGeometry g;
+  g.width = g.height = 512;
+  g.spacing_x = g.spacing_y = 0.8;
+  g.z = {0.0};
+  return g;
+}
+
+TEST(Pith, AirOnlyIsNotFound) {
+  const Slice s = air_slice(3);
+  const VolumeGeometry g = geometry_512();
+  EXPECT_FALSE(detect_pith(s, g, {}, nullptr).found);
+  const Vec2 prior{200, 200};
+  EXPECT_FALSE(detect_pith(s, g, {}, &prior).found);
+}
+
+// A disc of wood smaller than any log (a twig, a chip) is not a log either.
+TEST(Pith, TinyObjectIsNotFound) {
+  Slice s = air_slice(4);
+  for (int y = 0; y < 512; ++y)
+    for (int x = 0; x < 512; ++x)
+      if (std::hypot(x - 256, y - 256) * 0.8 < 8.0) s.hu[static_cast<size_t>(y) * 512 + x] = -300;
+  EXPECT_FALSE(detect_pith(s, geometry_512(), {}, nullptr).found);
+}
+
+// Concentric synthetic rings around a known sub-pixel centre: the refinement is sub-pixel.
+TEST(Pith, SyntheticRingsSubPixel) {
+  Slice s = air_slice(5);
+  const Vec2 c{203.37, 188.91};  // mm
+  for (int y = 0; y < 512; ++y)
+    for (int x = 0; x < 512; ++x) {
+      const double r = std::hypot(x * 0.8 - c.x, y * 0.8 - c.y);
+      if (r < 110)
+        s.hu[static_cast<size_t>(y) * 512 + x] += 500.f + 17.f * std::sin(2 * kPi * r / 3.0);
+    }
+  const PithResult p = detect_pith(s, geometry_512(), {}, nullptr);
+  ASSERT_TRUE(p.found);
+  EXPECT_LE((p.pith_mm - c).norm(), 0.2);
+}
+
+// The smoother ignores isolated wild detections and fills slices that were not found.
+TEST(PithTrack, RobustToOutliersAndGaps) {
+  std::vector<double> z;
+  std::vector<PithResult> raw;
+  std::vector<Vec2> truth;
+  for (int i = 0; i < 40; ++i) {
+    z.push_back(i * 5.0);
+    const Vec2 t{200 + 0.02 * i * 5.0, 180 + 3.0 * std::sin(i * 5.0 / 150.0)};
+    truth.push_back(t);
+    PithResult r;
+    r.found = true;
+    r.confidence = 0.8;
+    r.pith_mm = t + Vec2{0.2 * std::sin(i * 1.7), 0.2 * std::cos(i * 2.3)};
+    raw.push_back(r);
+  }
+  raw[10].pith_mm = raw[10].pith_mm + Vec2{12, -9};  // a knot pulled this one
+  raw[25].pith_mm = raw[25].pith_mm + Vec2{-6, 0};
+  raw[30].found = false;  // missing
+  raw[30].pith_mm = {};
+  const std::vector<Vec2> s = smooth_pith_track(z, raw, {});
+  ASSERT_EQ(s.size(), z.size());
+  for (size_t i = 0; i < z.size(); ++i) EXPECT_LE((s[i] - truth[i]).norm(), 0.35) << "slice " << i;
+  std::vector<PithResult> none(3);
+  EXPECT_TRUE(smooth_pith_track({0, 5, 10}, none, {}).empty());
+}
+
+}  // namespace
+}  // namespace sawyer::ct
