@@ -28,16 +28,7 @@ namespace {
 namespace fs = std::filesystem;
 using test::TempDir;
 
-const LogModel& sample(const std::string& name) {
-  static std::map<std::string, LogModel> cache;
-  auto it = cache.find(name);
-  if (it == cache.end()) {
-    auto r = read_log_json(test::sample_log(name) / "log.json");
-    EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message());
-    it = cache.emplace(name, r.ok() ? r.value() : LogModel{}).first;
-  }
-  return it->second;
-}
+const LogModel& sample(const std::string& name) { return test::sample_model(name); }
 
 // No noise, no blur: CT numbers exactly as the model gives them.
 PhantomOptions quiet() {

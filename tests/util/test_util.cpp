@@ -1,5 +1,10 @@
 #include "sawyer/test/test_util.h"
 
+#include <map>
+#include <mutex>
+
+#include "sawyer/model/log_json.h"
+
 #include <gtest/gtest.h>
 
 #include <array>
@@ -54,6 +59,19 @@ void write_file(const fs::path& path, const std::string& text) {
   fs::create_directories(path.parent_path());
   std::ofstream out(path, std::ios::binary);
   out << text;
+}
+
+const LogModel& sample_model(const std::string& name) {
+  static std::map<std::string, LogModel> cache;
+  static std::mutex mutex;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto it = cache.find(name);
+  if (it == cache.end()) {
+    auto r = read_log_json(sample_log(name) / "log.json");
+    EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message());
+    it = cache.emplace(name, r.ok() ? r.value() : LogModel{}).first;
+  }
+  return it->second;
 }
 
 }  // namespace sawyer::test

@@ -4,12 +4,17 @@
 #include <filesystem>
 #include <string>
 
+#include "sawyer/model/log_model.h"
+
 namespace sawyer::test {
 
 // The project's source root: $SAWYER_SOURCE_DIR, else the source tree this was built from.
 std::filesystem::path source_dir();
 // sample_logs/<name> inside the project.
 std::filesystem::path sample_log(const std::string& name);
+// sample_logs/<name>/log.json, read once per test process and kept (a failed read is a test
+// failure and gives an empty model).
+const LogModel& sample_model(const std::string& name);
 // The bundled real spruce stem-bank files (sample_logs/gran1_spruce/source).
 std::filesystem::path gran1_source_dir();
 
