@@ -162,10 +162,6 @@ std::string fmt(double v, int decimals = 3) {
   return buf;
 }
 
-Vec3 cross(Vec3 a, Vec3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-
 std::string ts_name(const std::string& uid) {
   static const std::map<std::string, std::string> names = {
       {"1.2.840.10008.1.2", "Implicit VR Little Endian"},

@@ -104,10 +104,6 @@ void put_us(gdcm::DataSet& ds, uint16_t group, uint16_t element, uint16_t value)
   ds.Replace(de);
 }
 
-Vec3 cross(Vec3 a, Vec3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-
 class DicomSeriesWriter final : public SliceSink {
  public:
   DicomSeriesWriter(StagingDir staging, const VolumeGeometry& g, const WriteOptions& o)

@@ -77,10 +77,6 @@ std::string oiio_detail(std::string s, const fs::path& file) {
   return s;
 }
 
-std::string with_detail(const std::string& what, const std::string& detail) {
-  return detail.empty() ? what : what + " (" + detail + ")";
-}
-
 // ---------------------------------------------------------------------------------------------
 // File order
 

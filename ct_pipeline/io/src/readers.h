@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include "sawyer/core/result.h"
 #include "sawyer/ct/slice_sink.h"
@@ -11,6 +12,11 @@
 namespace sawyer::ct::detail {
 
 namespace fs = std::filesystem;
+
+// "what (detail)", or just "what" when a library gave no detail.
+inline std::string with_detail(const std::string& what, const std::string& detail) {
+  return detail.empty() ? what : what + " (" + detail + ")";
+}
 
 // dicom_reader.cpp: a folder of DICOM files (or one file of it); picks the series.
 // Returns the raw z positions (possibly uneven); open_ct applies make_uniform_z.

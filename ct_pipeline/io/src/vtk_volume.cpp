@@ -102,10 +102,6 @@ bool parse_numbers(const std::string& text, std::vector<double>& out) {
 }
 
 Vec3 normalized(Vec3 v) { return v.normalized(); }
-Vec3 cross(Vec3 a, Vec3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-
 // ---------------------------------------------------------------------------------------------
 // What a header declares, format-independent.
 
@@ -657,10 +653,6 @@ class VtkErrors : public vtkCommand {
   int count_ = 0;
   std::string first_;
 };
-
-std::string with_detail(const std::string& what, const std::string& detail) {
-  return detail.empty() ? what : what + " (" + detail + ")";
-}
 
 class VtkVolumeSource final : public SliceSource {
  public:
