@@ -66,7 +66,9 @@ struct HeartwoodOptions {
 };
 
 struct HeartwoodResult {
-  std::vector<double> radius;  // heartwood radius (mm) per azimuth; 0 where none was found
+  // Heartwood radius (mm) per azimuth. Where no border was seen (a knot across it) the value
+  // comes from the slice's robust angular fit, so every azimuth is valid when `present`.
+  std::vector<double> radius;
   std::vector<bool> valid;
   bool present = false;  // false: no dry core (e.g. a fully wet log)
 };
