@@ -1,13 +1,15 @@
 // stem_bench: accuracy and speed of the stem pass (issue 4) on phantoms with ground truth.
 //
-//   stem_bench [--slices N] [--spacing MM] [--random K]
+//   stem_bench [--slices N] [--spacing MM] [--random K] [--speed-slices M] [--only LOG_ID]
+//              [--verbose 1]
 //
 // For each log (the three bundled ones and K freshly generated ones) and each condition
 // ("clean": 512 x 512, 0.8 mm, the default 20 HU noise and bed; "hard": twice the noise, the
 // bed touching the log, 5 % missing slices) it renders N slices in memory, runs scan_stem on
 // them and compares with the phantom's truth: pith error (median, 95th percentile, worst slice),
-// outer radius RMS over every angle and slice, heartwood radius RMS. A second table times the
-// per-slice detectors alone on one core. Rendering is not timed.
+// outer radius RMS over every angle and slice, heartwood radius RMS (--verbose 1 lists every
+// slice). A second table times the whole stem pass on M slices with one and two threads.
+// Rendering is not timed.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,6 +20,7 @@
 #include <vector>
 
 #include "sawyer/ct/phantom.h"
+#include "sawyer/ct/phantom_source.h"
 #include "sawyer/ct/slice_source.h"
 #include "sawyer/ct/stem_detect.h"
 #include "sawyer/ct/stem_scan.h"
@@ -29,27 +32,7 @@ using namespace sawyer::ct;
 
 namespace {
 
-// The phantom's kept slices, rendered up front, behind the SliceSource interface.
-class PhantomSource final : public SliceSource {
- public:
-  explicit PhantomSource(const Phantom& ph) : g_(ph.geometry()) {
-    for (int k : ph.kept()) slices_.push_back(ph.render_slice(k));
-  }
-  Format format() const override { return Format::kDicom; }
-  const VolumeGeometry& geometry() const override { return g_; }
-  std::string description() const override { return "phantom"; }
-  const std::vector<std::string>& notes() const override { return notes_; }
-  Status read(int i, Slice& out) override {
-    out = slices_[i];
-    out.index = i;
-    return Status::Ok();
-  }
-
- private:
-  VolumeGeometry g_;
-  std::vector<Slice> slices_;
-  std::vector<std::string> notes_;
-};
+bool verbose = false;
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -77,12 +60,13 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
   o.seed = seed;
   if (condition == "hard") {
     o.noise_hu *= 2;
+    o.bed_gap_mm = 0;  // the log lies on the belt
     o.drop_slices = std::max(1, n / 20);
   }
   auto ph = Phantom::create(log, o);
   if (!ph) return ph.error();
   const Phantom& p = *ph.value();
-  auto raw = std::make_unique<PhantomSource>(p);
+  auto raw = std::make_unique<PhantomSource>(p, true);
   OpenOptions oo;
   auto src = make_uniform_z(std::move(raw), oo);
   if (!src) return src.error();
@@ -105,6 +89,12 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
     const Vec2 want = truth.stem.pith_at(z);
     const double e = (rec.pith - want).norm();
     err.push_back(e);
+    if (verbose)
+      std::printf("  %s %s slice %2zu z %.0f: raw %s refined %s smoothed %.2f mm%s\n", log.id.c_str(),
+                  condition.c_str(), j, z,
+                  rec.pith_raw.found ? std::to_string((rec.pith_raw.pith_mm - want).norm()).substr(0, 5).c_str() : "-",
+                  rec.pith_refined.found ? std::to_string((rec.pith_refined.pith_mm - want).norm()).substr(0, 5).c_str() : "-",
+                  e, rec.pith_outlier ? " (outlier)" : "");
     if (e > row.pith_worst) {
       row.pith_worst = e;
       row.worst_slice = static_cast<int>(j);
@@ -142,29 +132,42 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
   return row;
 }
 
-// Median milliseconds per slice of the three detectors on one core, with a pith prior.
-double time_detectors(const LogModel& log) {
+// The whole stem pass (tracking, refinement, contour, heartwood, assembly) on `n` slices of a
+// log's middle, pre-rendered in memory, with 1 and with 2 threads: ms per slice and the time an
+// 800-slice scan would take at that rate. Best of three runs each.
+struct Speed {
+  int slices = 0;
+  double ms_one = 0, ms_two = 0;
+};
+
+Speed time_stem_pass(const LogModel& log, int n, double spacing) {
   PhantomOptions o;
+  o.slice_spacing_mm = spacing;
   const double mid = log.stem.z_begin() + 0.5 * log.stem.length_mm();
-  o.from_mm = mid;
-  o.to_mm = mid + 45;
+  const double half = std::min(0.5 * spacing * (n - 1), 0.5 * log.stem.length_mm() - 20.0);
+  o.from_mm = mid - half;
+  o.to_mm = mid + half;
+  Speed sp;
   auto ph = Phantom::create(log, o);
-  if (!ph) return NAN;
-  std::vector<double> ms;
-  for (int i = 0; i < ph.value()->nominal_count(); ++i) {
-    const Slice s = ph.value()->render_slice(i);
-    const Vec2 prior = ph.value()->pith(i);
-    for (int rep = 0; rep < 5; ++rep) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const PithResult p = detect_pith(s, ph.value()->geometry(), {}, &prior);
-      const ContourResult c = detect_contour(s, ph.value()->geometry(), p.pith_mm, {});
-      const HeartwoodResult h = detect_heartwood(s, ph.value()->geometry(), p.pith_mm, c, {});
-      ms.push_back(
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-      if (!p.found && h.present) ms.back() = NAN;  // keep the results alive
+  if (!ph) return sp;
+  PhantomSource src(*ph.value(), true);
+  sp.slices = src.geometry().slice_count();
+  for (int threads : {1, 2}) {
+    double best = 1e30;
+    for (int rep = 0; rep < 3; ++rep) {
+      StemScanOptions so;
+      so.threads = threads;
+      auto scan = scan_stem(src, so);
+      if (!scan) return sp;
+      best = std::min(best, scan.value().seconds);
+      if (verbose)
+        std::printf("  %d thread(s): %.3f s = tracking + contours %.3f s, refinement %.3f s\n",
+                    threads, scan.value().seconds, scan.value().seconds_tracking,
+                    scan.value().seconds_refining);
     }
+    (threads == 1 ? sp.ms_one : sp.ms_two) = 1000.0 * best / sp.slices;
   }
-  return percentile(ms, 0.5);
+  return sp;
 }
 
 }  // namespace
@@ -172,10 +175,15 @@ double time_detectors(const LogModel& log) {
 int main(int argc, char** argv) {
   int n = 40, random_logs = 2;
   double spacing = 5.0;
+  std::string only;
+  int speed_slices = 160;
   for (int a = 1; a + 1 < argc; a += 2) {
     if (!std::strcmp(argv[a], "--slices")) n = std::atoi(argv[a + 1]);
     else if (!std::strcmp(argv[a], "--spacing")) spacing = std::atof(argv[a + 1]);
     else if (!std::strcmp(argv[a], "--random")) random_logs = std::atoi(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--verbose")) verbose = std::atoi(argv[a + 1]) != 0;
+    else if (!std::strcmp(argv[a], "--only")) only = argv[a + 1];
+    else if (!std::strcmp(argv[a], "--speed-slices")) speed_slices = std::atoi(argv[a + 1]);
   }
   std::vector<LogModel> logs;
   for (const char* name : {"gran1_spruce", "pine_8", "spruce_77"}) {
@@ -198,6 +206,7 @@ int main(int argc, char** argv) {
               "radius RMS mm | heartwood RMS mm | slices/s |\n");
   std::printf("|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const LogModel& log : logs) {
+    if (!only.empty() && log.id != only) continue;
     for (const char* cond : {"clean", "hard"}) {
       auto row = run(log, cond, n, spacing, 7);
       if (!row) {
@@ -214,8 +223,16 @@ int main(int argc, char** argv) {
       std::fflush(stdout);
     }
   }
-  std::printf("\nDetectors alone, one core, median ms per 512 x 512 slice (pith with a prior + "
-              "contour + heartwood)\n\n| log | ms/slice |\n|---|---:|\n");
-  for (const LogModel& log : logs) std::printf("| %s | %.2f |\n", log.id.c_str(), time_detectors(log));
+  if (speed_slices <= 0) return 0;
+  std::printf("\nWhole stem pass on %d slices of each log's middle (in memory, reading excluded), "
+              "best of 3\n\n| log | slices | ms/slice, 1 thread | ms/slice, 2 threads | "
+              "800 slices, 2 threads (s) |\n|---|---:|---:|---:|---:|\n", speed_slices);
+  for (const LogModel& log : logs) {
+    if (!only.empty() && log.id != only) continue;
+    const Speed sp = time_stem_pass(log, speed_slices, spacing);
+    std::printf("| %s | %d | %.2f | %.2f | %.2f |\n", log.id.c_str(), sp.slices, sp.ms_one,
+                sp.ms_two, 0.8 * sp.ms_two);
+    std::fflush(stdout);
+  }
   return 0;
 }

@@ -1,13 +1,12 @@
-// Pith detection (issue 4) against phantoms of the bundled logs: detect_pith per slice, the
-// tracker (prior from the previous slice) and the robust z smoothing, compared with the exact
-// pith the phantom reports (Phantom::pith). Accuracy targets of the issue at 512 x 512, 0.8 mm:
-// median <= 0.5 mm, 95th percentile <= 1.5 mm; within 2x with doubled noise, the bed touching
-// the log and 5 % missing slices. Those targets are printed (met / NOT MET), and the asserts are
-// regression bounds of what the detector achieves today. Timings are printed, never asserted.
+// Pith (issue 4) against phantoms of the bundled logs: the whole stem pass (tracking on slices
+// averaged along z, ring-profile refinement, robust smoothing) on short sections compared with
+// the exact pith, the per-slice detector on hard single slices, the refinement on synthetic
+// homothetic rings, and the smoother. Bounds are looser than the issue's targets (median
+// <= 0.5 mm, p95 <= 1.5 mm, within 2x under doubled noise, bed touching, missing slices), which
+// bench/stem_bench measures on longer sections.
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -16,6 +15,8 @@
 #include <vector>
 
 #include "sawyer/ct/phantom.h"
+#include "sawyer/ct/phantom_source.h"
+#include "sawyer/ct/stem_scan.h"
 #include "sawyer/ct/pith_track.h"
 #include "sawyer/ct/stem_detect.h"
 #include "sawyer/model/log_json.h"
@@ -23,12 +24,6 @@
 
 namespace sawyer::ct {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -77,54 +72,44 @@ Section render(const std::string& log_name, double from_mm, double to_mm, Phanto
   return s;
 }
 
+Slice air_slice(std::uint64_t seed);
+VolumeGeometry geometry_512();
+
 struct Measured {
-  Stats raw;       // detect_pith without a prior, every slice
-  Stats tracked;   // the tracker (prior from the previous slice)
-  Stats smoothed;  // smooth_pith_track of the tracker's output
-  double ms_no_prior = 0, ms_prior = 0;
-  int not_found = 0;
+  Stats raw;       // detect_pith without a prior, every slice (one slice's evidence only)
+  Stats smoothed;  // the stem pass: tracking, refinement, smoothing (scan_stem)
+  int slices = 0;
 };
 
+// The stem pass (scan_stem) on the phantom's slices through make_uniform_z (so dropped slices
+// are resampled as a real scan's would be), compared with the exact pith at every slice.
 Measured measure(const Section& s, const std::string& label) {
   Measured m;
   const VolumeGeometry& g = s.phantom->geometry();
-  const size_t n = s.slices.size();
-  std::vector<double> e_raw, e_trk, e_smooth;
-  auto t0 = Clock::now();
-  std::vector<PithResult> raw;
-  for (const Slice& sl : s.slices) raw.push_back(detect_pith(sl, g, {}, nullptr));
-  m.ms_no_prior = ms_since(t0) / static_cast<double>(n);
-  PithTracker tracker(g, {});
-  std::vector<PithResult> trk;
-  trk.push_back(tracker.next(s.slices[0]));  // the first slice has no prior: not timed
-  t0 = Clock::now();
-  for (size_t i = 1; i < n; ++i) trk.push_back(tracker.next(s.slices[i]));
-  m.ms_prior = n > 1 ? ms_since(t0) / static_cast<double>(n - 1) : 0;
-  const std::vector<Vec2> smooth = smooth_pith_track(g.z, trk, {});
-  for (size_t i = 0; i < n; ++i) {
-    if (!raw[i].found || !trk[i].found) ++m.not_found;
-    e_raw.push_back(raw[i].found ? (raw[i].pith_mm - s.truth[i]).norm() : 1e9);
-    e_trk.push_back(trk[i].found ? (trk[i].pith_mm - s.truth[i]).norm() : 1e9);
-    e_smooth.push_back(smooth.empty() ? 1e9 : (smooth[i] - s.truth[i]).norm());
+  std::vector<double> e_raw, e_smooth;
+  for (size_t i = 0; i < s.slices.size(); ++i) {
+    const PithResult r = detect_pith(s.slices[i], g, {}, nullptr);
+    e_raw.push_back(r.found ? (r.pith_mm - s.truth[i]).norm() : 1e9);
   }
+  auto src = make_uniform_z(std::make_unique<PhantomSource>(*s.phantom, true), {});
+  EXPECT_TRUE(src.ok());
+  if (!src.ok()) return m;
+  StemScanOptions o;
+  o.threads = 2;
+  auto scan = scan_stem(*src.value(), o);
+  EXPECT_TRUE(scan.ok()) << (scan.ok() ? "" : scan.error().message());
+  if (!scan.ok()) return m;
+  const LogModel truth = s.phantom->truth_log();
+  for (const StemSliceRecord& rec : scan.value().slices)
+    e_smooth.push_back((rec.pith - truth.stem.pith_at(rec.z)).norm());
   m.raw = stats(e_raw);
-  m.tracked = stats(e_trk);
   m.smoothed = stats(e_smooth);
-  std::printf(
-      "[pith] %-34s %2zu slices | median/p95/max mm: raw %.2f/%.2f/%.2f  tracked %.2f/%.2f/%.2f  "
-      "smoothed %.2f/%.2f/%.2f | ms/slice: no prior %.2f, prior %.2f\n",
-      label.c_str(), n, m.raw.median, m.raw.p95, m.raw.max, m.tracked.median, m.tracked.p95,
-      m.tracked.max, m.smoothed.median, m.smoothed.p95, m.smoothed.max, m.ms_no_prior, m.ms_prior);
+  m.slices = static_cast<int>(e_smooth.size());
+  std::printf("[pith] %-40s %2d slices | median/p95/max mm: single slice %.2f/%.2f/%.2f  "
+              "stem pass %.2f/%.2f/%.2f\n",
+              label.c_str(), m.slices, m.raw.median, m.raw.p95, m.raw.max, m.smoothed.median,
+              m.smoothed.p95, m.smoothed.max);
   return m;
-}
-
-// The issue's targets are printed, met or not. The assertions next to them are regression bounds
-// of the current implementation, NOT the issue's targets, which it does not meet yet (single
-// slices err by several mm at 20 HU noise; the z smoothing brings the median to about 1 mm).
-void report_target(const Measured& m, double median, double p95) {
-  const bool met = m.smoothed.median <= median && m.smoothed.p95 <= p95;
-  std::printf("[pith]   issue target median <= %.1f, p95 <= %.1f mm: %s\n", median, p95,
-              met ? "met" : "NOT MET");
 }
 
 PhantomOptions base_options() {
@@ -137,15 +122,20 @@ PhantomOptions base_options() {
   return o;
 }
 
-// Real spruce geometry (Gran_1), default noise (20 HU), bed under the log.
+// The issue's targets are median <= 0.5 mm and p95 <= 1.5 mm (bench/stem_bench prints them on
+// longer sections); these short sections are mostly section ends, where the averaging windows
+// are one-sided, so the bounds here are twice the targets.
+
+// Real spruce geometry (Gran_1), default noise (20 HU), bed under the log; a stretch where the
+// pith leans (0.4 mm per 5 mm slice in x), which the drift-compensated averaging must follow.
 TEST(Pith, Gran1SpruceNominal) {
-  const Section s = render("gran1_spruce", 1500, 1560, base_options());
-  ASSERT_EQ(s.slices.size(), 13u);
+  const Section s = render("gran1_spruce", 1500, 1600, base_options());
+  ASSERT_EQ(s.slices.size(), 21u);
   const Measured m = measure(s, "gran1_spruce nominal");
-  EXPECT_EQ(m.not_found, 0);
-  report_target(m, 0.5, 1.5);
-  EXPECT_LE(m.smoothed.median, 2.0);
-  EXPECT_LE(m.smoothed.p95, 4.0);
+  EXPECT_LE(m.smoothed.median, 1.0);
+  EXPECT_LE(m.smoothed.p95, 3.0);
+  // Single slices at this noise err by millimetres: the averaging along z is what works.
+  EXPECT_GT(m.raw.median, m.smoothed.median);
 }
 
 // Pine through a whorl (5 knots starting at 1293-1313 mm), placed off centre and rolled.
@@ -154,28 +144,63 @@ TEST(Pith, Pine8WhorlOffsetAndRoll) {
   o.placement.offset_x_mm = 28;
   o.placement.offset_y_mm = -20;
   o.placement.roll_deg = 40;
-  const Section s = render("pine_8", 1285, 1345, o);
-  ASSERT_EQ(s.slices.size(), 13u);
+  const Section s = render("pine_8", 1250, 1350, o);
+  ASSERT_EQ(s.slices.size(), 21u);
   const Measured m = measure(s, "pine_8 whorl, offset 28/-20, roll 40");
-  EXPECT_EQ(m.not_found, 0);
-  report_target(m, 0.5, 1.5);
-  EXPECT_LE(m.smoothed.median, 2.0);
-  EXPECT_LE(m.smoothed.p95, 4.0);
+  EXPECT_LE(m.smoothed.median, 1.0);
+  EXPECT_LE(m.smoothed.p95, 3.0);
 }
 
-// Second spruce, doubled noise, bed touching, 5 % missing slices: within 2x of the targets.
-TEST(Pith, Spruce77DoubledNoiseAndMissingSlices) {
+// Second spruce, doubled noise, bed touching, 5 % missing slices: within 2x of the targets,
+// and twice that here.
+TEST(Pith, Spruce77DoubledNoiseBedTouchingMissingSlices) {
   PhantomOptions o = base_options();
   o.noise_hu = 40;
+  o.bed_gap_mm = 0;
   o.drop_slices = 1;
   const Section s = render("spruce_77", 1000, 1100, o);
   ASSERT_EQ(s.slices.size(), 20u);  // 21 nominal, one dropped
   ASSERT_EQ(s.phantom->dropped().size(), 1u);
-  const Measured m = measure(s, "spruce_77 noise 40, bed, 1 of 21 dropped");
-  EXPECT_EQ(m.not_found, 0);
-  report_target(m, 1.0, 3.0);
-  EXPECT_LE(m.smoothed.median, 8.0);
-  EXPECT_LE(m.smoothed.p95, 20.0);
+  const Measured m = measure(s, "spruce_77 noise 40, bed touching, 1 of 21 dropped");
+  ASSERT_EQ(m.slices, 21);  // the dropped slice is resampled
+  EXPECT_LE(m.smoothed.median, 2.0);
+  EXPECT_LE(m.smoothed.p95, 6.0);
+}
+
+// Homothetic rings (the log model's own stem time, DESIGN.md 5) around an off-centre pith in an
+// oval, off-centre section: with the outline the ring-profile refinement lands on the pith;
+// fitting circles instead is pulled towards the section's centre.
+TEST(Pith, ConcentricRefinementFollowsTheOutline) {
+  Slice s = air_slice(6);
+  const Vec2 pith{198.4, 207.3};
+  std::vector<double> outline(360);
+  for (int k = 0; k < 360; ++k) {
+    const double w = kTwoPi * k / 360;
+    outline[k] = 110.0 + 14.0 * std::cos(w - 0.7) + 6.0 * std::cos(2 * w);  // eccentric, oval
+  }
+  for (int y = 0; y < 512; ++y)
+    for (int x = 0; x < 512; ++x) {
+      const double dx = x * 0.8 - pith.x, dy = y * 0.8 - pith.y;
+      double w = std::atan2(dy, dx);
+      if (w < 0) w += kTwoPi;
+      const double R = outline[static_cast<size_t>(std::lround(w / kTwoPi * 360)) % 360];
+      const double t = std::hypot(dx, dy) / R;
+      if (t < 1) s.hu[static_cast<size_t>(y) * 512 + x] += 500.f + 17.f * std::sin(kTwoPi * t * 36);
+    }
+  // As in the stem pass, the outline is expressed around the search's start.
+  const Vec2 start = pith + Vec2{1.6, -1.9};
+  std::vector<bool> valid(360, true);
+  recentre_contour(pith, start, outline, valid);
+  ASSERT_EQ(std::count(valid.begin(), valid.end(), true), 360);
+  const PithResult a = refine_pith_concentric(s, geometry_512(), start, 3.0, &outline);
+  ASSERT_TRUE(a.found);
+  EXPECT_LE((a.pith_mm - pith).norm(), 0.25);
+  EXPECT_GT(a.confidence, 0.5);
+  const PithResult b = refine_pith_concentric(s, geometry_512(), start, 3.0, nullptr);
+  ASSERT_TRUE(b.found);
+  EXPECT_GT((b.pith_mm - pith).norm(), (a.pith_mm - pith).norm());
+  std::printf("[pith] homothetic rings: %.2f mm with the outline, %.2f mm with circles\n",
+              (a.pith_mm - pith).norm(), (b.pith_mm - pith).norm());
 }
 
 // One slice through the pine whorl, just above the knots' start: knots radiate from the pith.

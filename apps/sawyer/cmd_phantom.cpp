@@ -118,6 +118,9 @@ void add_phantom_command(CLI::App& app, std::function<int()>& run_out) {
       ->capture_default_str();
   cmd->add_flag("--clutter", o.clutter, "add steel support bars and a chain");
   cmd->add_flag("--no-bed", c->no_bed, "leave out the scanner bed");
+  cmd->add_option("--bed-gap-mm", o.bed_gap_mm,
+                  "belt below the log's lowest point, mm (0: the log lies on it)")
+      ->capture_default_str();
   cmd->add_option("--rescale-intercept", c->rescale_intercept,
                   "DICOM and image stacks: stored = HU - intercept (default: 0 for DICOM, "
                   "-1024 for TIFF/PNG; volume files always store HU)");

@@ -95,8 +95,9 @@ cv::Mat pith_plot(const ct::StemScan& scan) {
       const cv::Point p(x, cy - static_cast<int>(v / 20.0 * half));
       if (i > 0) cv::line(img, prev, p, cv::Scalar(160, 60, 0), 2, cv::LINE_AA);
       prev = p;
-      if (s[i].pith_raw.found) {
-        const double rv = panel == 0 ? s[i].pith_raw.pith_mm.x - mx : s[i].pith_raw.pith_mm.y - my;
+      if (s[i].pith_refined.found) {
+        const double rv =
+            panel == 0 ? s[i].pith_refined.pith_mm.x - mx : s[i].pith_refined.pith_mm.y - my;
         cv::circle(img, {x, cy - static_cast<int>(rv / 20.0 * half)}, 2,
                    s[i].pith_outlier ? cv::Scalar(0, 0, 255) : cv::Scalar(60, 60, 60), -1);
       }
@@ -158,7 +159,7 @@ int run_scan(const ScanCli& c) {
   int outliers = 0;
   for (const auto& r : s.slices) outliers += r.pith_outlier;
   std::printf("scanned %s: %d slices in %.2f s, %.0f slices/s on %d threads; stem %d samples of "
-              "%.1f mm%s; %d pith outliers replaced; wrote %s\n",
+              "%.1f mm%s; %d refined piths rejected as outliers; wrote %s\n",
               c.input.c_str(), n, s.seconds, s.slices_per_second(), s.threads,
               s.stem.slice_count(), s.stem.dz_mm, s.stem.heartwood.empty() ? "" : " with heartwood",
               outliers, c.output.c_str());

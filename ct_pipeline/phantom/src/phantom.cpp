@@ -129,6 +129,8 @@ Status PhantomOptions::validate() const {
     return bad("--noise-hu", "noise σ must be 0-1000 HU, got " + fmt(noise_hu, 1));
   if (!(blur_px >= 0 && blur_px <= 10))
     return bad("--blur-px", "PSF σ must be 0-10 pixels, got " + fmt(blur_px, 2));
+  if (!(bed_gap_mm >= 0 && bed_gap_mm <= 100))
+    return bad("--bed-gap-mm", "must be 0-100 mm, got " + fmt(bed_gap_mm, 2));
   if (!(ring_width_mm >= 0.3 && ring_width_mm <= 30))
     return bad("--ring-width-mm", "ring width must be 0.3-30 mm, got " + fmt(ring_width_mm, 2));
   if (!(ring_amplitude >= 0 && ring_amplitude <= 1))
@@ -408,7 +410,7 @@ Status Phantom::prepare() {
     has_bed_ = true;
     bed_radius_ = 1.35 * max_outer_;
     bed_half_angle_ = 40 * kDeg;
-    const double gap = 0.5;
+    const double gap = o.bed_gap_mm;
     bed_centre_ = {x_low, y_low + gap - bed_radius_};
     for (int s = 0; s < 2; ++s) {
       const double sg = s == 0 ? -1 : 1;

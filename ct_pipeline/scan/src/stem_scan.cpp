@@ -87,37 +87,6 @@ class JobQueue {
 
 }  // namespace
 
-std::vector<Vec2> smooth_pith(const std::vector<PithResult>& raw, int half_window,
-                              double outlier_mm, std::vector<bool>* outlier) {
-  const int n = static_cast<int>(raw.size());
-  const int h = std::max(half_window, 1);
-  std::vector<Vec2> med(n), cleaned(n), out(n);
-  if (outlier) outlier->assign(n, false);
-  for (int i = 0; i < n; ++i) {
-    std::vector<double> xs, ys;
-    for (int j = std::max(0, i - h); j <= std::min(n - 1, i + h); ++j) {
-      if (!raw[j].found) continue;
-      xs.push_back(raw[j].pith_mm.x);
-      ys.push_back(raw[j].pith_mm.y);
-    }
-    med[i] = xs.empty() ? Vec2{} : Vec2{median_of(xs), median_of(ys)};
-    const bool have = !xs.empty();
-    const bool bad = !raw[i].found || (raw[i].pith_mm - med[i]).norm() > outlier_mm;
-    cleaned[i] = bad ? med[i] : raw[i].pith_mm;
-    if (outlier && raw[i].found && bad && have) (*outlier)[i] = true;
-  }
-  for (int i = 0; i < n; ++i) {
-    Vec2 acc{};
-    int c = 0;
-    for (int j = std::max(0, i - h); j <= std::min(n - 1, i + h); ++j) {
-      acc = acc + cleaned[j];
-      ++c;
-    }
-    out[i] = (1.0 / c) * acc;
-  }
-  return out;
-}
-
 void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& radius,
                       std::vector<bool>& valid) {
   const int n = static_cast<int>(radius.size());
@@ -186,58 +155,93 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
       Job job;
       while (queue.pop(job)) {
         StemSliceRecord& rec = scan.slices[job.index];
-        if (!rec.pith_raw.found) continue;
+        if (!rec.measured) continue;
         rec.contour = detect_contour(job.slice, g, job.pith, options.contour);
         rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, options.heartwood);
       }
     });
   }
+  // The reading thread tracks the pith (each slice's search starts from the previous answer)
+  // on slices averaged along z, a few slices behind the input, and feeds the workers.
   Status status = Status::Ok();
-  const Vec2* prior = nullptr;
-  Vec2 last{};
+  PithTracker tracker(g, options.pith, options.tracker);
+  std::vector<SliceCrop> crops(static_cast<size_t>(n));
+  auto dispatch = [&](std::vector<TrackedSlice> done) {
+    for (TrackedSlice& t : done) {
+      StemSliceRecord& rec = scan.slices[static_cast<size_t>(t.index)];
+      rec.z = g.z[static_cast<size_t>(t.index)];
+      rec.pith_raw = t.pith;
+      rec.measured = t.has_centre;
+      rec.centre = t.centre;
+      crops[static_cast<size_t>(t.index)] = std::move(t.crop);
+      Job job;
+      job.index = t.index;
+      job.pith = t.centre;
+      job.slice = std::move(t.slice);
+      queue.push(std::move(job));
+      if (progress) progress(t.index + 1, n);
+    }
+  };
   for (int i = 0; i < n; ++i) {
-    Job job;
-    job.index = i;
-    status = source.read(i, job.slice);
+    Slice slice;
+    status = source.read(i, slice);
     if (!status) break;
-    StemSliceRecord& rec = scan.slices[i];
-    rec.z = g.z[i];
-    rec.pith_raw = detect_pith(job.slice, g, options.pith, prior);
-    if (prior && (!rec.pith_raw.found || rec.pith_raw.confidence < 0.05)) {
-      // Lost the track (a crack, a knot whorl): try again over the whole slice.
-      PithResult fresh = detect_pith(job.slice, g, options.pith, nullptr);
-      if (fresh.found && fresh.confidence > rec.pith_raw.confidence) rec.pith_raw = fresh;
-    }
-    if (rec.pith_raw.found) {
-      last = rec.pith_raw.pith_mm;
-      prior = &last;
-    }
-    job.pith = rec.pith_raw.pith_mm;
-    queue.push(std::move(job));
-    if (progress) progress(i + 1, n);
+    dispatch(tracker.push(std::move(slice)));
   }
+  if (status) dispatch(tracker.finish());
   queue.close();
   for (auto& w : workers) w.join();
   if (!status) return status.error();
 
-  std::vector<PithResult> raw(n);
+  std::vector<PithResult> raw(static_cast<size_t>(n));
   int found = 0;
   for (int i = 0; i < n; ++i) {
-    raw[i] = scan.slices[i].pith_raw;
-    found += raw[i].found;
+    raw[static_cast<size_t>(i)] = scan.slices[static_cast<size_t>(i)].pith_raw;
+    found += raw[static_cast<size_t>(i)].found;
   }
   if (found == 0) return Error(source.description(), "no log found in any slice");
+  const auto t_tracked = std::chrono::steady_clock::now();
+  scan.seconds_tracking = std::chrono::duration<double>(t_tracked - t0).count();
+  std::vector<double> z(g.z.begin(), g.z.begin() + n);
+  // The first track, then refinement passes on drift-compensated averages with the rings
+  // assumed homothetic to the outer contour (pith_track.h), each smoothed again.
+  std::vector<Vec2> track = smooth_pith_track(z, raw, options.track);
+  std::vector<PithResult> refined;
+  for (double search : {options.refine.search_radius_mm, options.refine_again_mm}) {
+    if (search < 0) continue;
+    std::vector<std::vector<double>> outlines(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) {
+      const StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
+      if (!rec.measured) continue;
+      std::vector<double> r = rec.contour.radius;
+      std::vector<bool> v = rec.contour.valid;
+      recentre_contour(rec.centre, track[static_cast<size_t>(i)], r, v);
+      if (fill_circular(r, v)) outlines[static_cast<size_t>(i)] = std::move(r);
+    }
+    PithRefineOptions ro = options.refine;
+    ro.search_radius_mm = search;
+    ro.threads = threads;
+    refined = refine_pith_track(crops, z, track, g, options.pith, ro, &outlines);
+    std::vector<Vec2> t2 = smooth_pith_track(z, refined, options.track);
+    if (t2.empty()) {  // nothing refined (no contour anywhere): keep the first track
+      refined.clear();
+      break;
+    }
+    track = std::move(t2);
+  }
+  scan.seconds_refining =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_tracked).count();
   std::vector<bool> outlier;
-  const std::vector<Vec2> smooth =
-      smooth_pith(raw, options.pith_half_window, options.pith_outlier_mm, &outlier);
+  smooth_pith_track(z, refined.empty() ? raw : refined, options.track, &outlier);
   for (int i = 0; i < n; ++i) {
-    StemSliceRecord& rec = scan.slices[i];
-    rec.pith = smooth[i];
-    rec.pith_outlier = outlier[i];
-    if (!rec.pith_raw.found) continue;
-    recentre_contour(rec.pith_raw.pith_mm, rec.pith, rec.contour.radius, rec.contour.valid);
+    StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
+    rec.pith = track[static_cast<size_t>(i)];
+    if (!refined.empty()) rec.pith_refined = refined[static_cast<size_t>(i)];
+    rec.pith_outlier = outlier[static_cast<size_t>(i)];
+    if (!rec.measured) continue;
+    recentre_contour(rec.centre, rec.pith, rec.contour.radius, rec.contour.valid);
     if (rec.heartwood.present)
-      recentre_contour(rec.pith_raw.pith_mm, rec.pith, rec.heartwood.radius, rec.heartwood.valid);
+      recentre_contour(rec.centre, rec.pith, rec.heartwood.radius, rec.heartwood.valid);
   }
 
   // The stem covers the slices from the first to the last with a contour.

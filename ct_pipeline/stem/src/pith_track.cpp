@@ -4,28 +4,321 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <atomic>
+#include <cstdlib>
+#include <thread>
 
 namespace sawyer::ct {
 
 namespace {
-constexpr double kMaxStepMm = 4.0;  // largest accepted pith move between tracked slices
+
+// Half-width (mm) of the averaged box around a prior: the prior search radius, the voters 20 mm
+// beyond it and the refinement disc (pith.cpp), with a margin.
+constexpr double kBoxBeyondSearchMm = 40.0;
+// A neighbour whose wood area differs from the centre slice's by more than this fraction is past
+// a log end (or a gap in the log) and is not averaged in.
+constexpr double kMaxAreaChange = 0.25;
+
+std::int64_t count_wood(const Slice& s, double wood_hu) {
+  std::int64_t n = 0;
+  for (int y = 0; y < s.height; y += 4)
+    for (int x = 0; x < s.width; x += 4) {
+      const float v = s.at(x, y);
+      n += v > wood_hu && v < kMaxWoodHu;
+    }
+  return n;
+}
+
+// Half-width (mm) of the crop kept for the refinement pass: the refinement's search radius, its
+// voters 20 mm beyond and the tensor margins, plus room for the first track's error.
+constexpr double kCropHalfMm = 45.0;
+
+SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_t wood) {
+  SliceCrop k;
+  k.wood_cells = wood;
+  const int hx = static_cast<int>(kCropHalfMm / g.spacing_x);
+  const int hy = static_cast<int>(kCropHalfMm / g.spacing_y);
+  const int cx = static_cast<int>(std::lround(c.x / g.spacing_x));
+  const int cy = static_cast<int>(std::lround(c.y / g.spacing_y));
+  k.x0 = std::clamp(cx - hx, 0, s.width);
+  k.y0 = std::clamp(cy - hy, 0, s.height);
+  k.width = std::clamp(cx + hx + 1, 0, s.width) - k.x0;
+  k.height = std::clamp(cy + hy + 1, 0, s.height) - k.y0;
+  if (k.width <= 0 || k.height <= 0) return SliceCrop{};
+  k.hu.resize(static_cast<size_t>(k.width) * k.height);
+  for (int y = 0; y < k.height; ++y)
+    std::copy_n(&s.hu[static_cast<size_t>(k.y0 + y) * s.width + k.x0], k.width,
+                &k.hu[static_cast<size_t>(y) * k.width]);
+  return k;
+}
+
+// Knots, cracks and the heartwood border are not annual rings: before averaging, a slice's pixels
+// farther than kOutlierHu from its wood level near the pith are left out (knots in dry heartwood
+// are 300-500 HU above it, cracks and the sapwood step as far), so a whorl blurred along z does
+// not leak into the rings. Level: median of the wood pixels within kLevelRadiusMm of the pith.
+constexpr float kOutlierHu = 150.f;
+constexpr double kLevelRadiusMm = 15.0;
+
+float wood_level(const float* img, int w, int h, double cx, double cy, double rx, double ry) {
+  std::vector<float> v;
+  const int x0 = std::max(0, static_cast<int>(cx - rx)), x1 = std::min(w - 1, static_cast<int>(cx + rx) + 1);
+  const int y0 = std::max(0, static_cast<int>(cy - ry)), y1 = std::min(h - 1, static_cast<int>(cy + ry) + 1);
+  for (int y = y0; y <= y1; y += 2)
+    for (int x = x0; x <= x1; x += 2) {
+      const double dx = (x - cx) / rx, dy = (y - cy) / ry;
+      if (dx * dx + dy * dy > 1) continue;
+      const float q = img[static_cast<size_t>(y) * w + x];
+      if (q > -700.f && q < static_cast<float>(kMaxWoodHu)) v.push_back(q);
+    }
+  if (v.empty()) return NAN;
+  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Adds the in-level pixels of src[xa, xb) to sum and count.
+inline void add_row(const float* src, float level, int xa, int xb, float* sum, float* cnt) {
+  for (int x = xa; x < xb; ++x) {
+    const bool in = std::abs(src[x] - level) <= kOutlierHu;
+    sum[x] += in ? src[x] : 0.f;
+    cnt[x] += in ? 1.f : 0.f;
+  }
+}
+
+bool better(const PithResult& a, const PithResult& b) {
+  if (a.found != b.found) return a.found;
+  return a.confidence > b.confidence;
+}
+
 }  // namespace
 
 PithTracker::PithTracker(const VolumeGeometry& geometry, const PithOptions& options,
-                         double min_confidence)
-    : geometry_(geometry), options_(options), min_confidence_(min_confidence) {}
+                         const PithTrackerOptions& tracker)
+    : geometry_(geometry), options_(options), tracker_(tracker) {
+  const double dz = geometry.slice_spacing();
+  if (tracker.average_half_window_mm > 0 && tracker.max_half_slices > 0) {
+    const int k = dz > 0 ? static_cast<int>(tracker.average_half_window_mm / dz + 1e-9) : 1;
+    half_ = std::clamp(k, 1, tracker.max_half_slices);
+  }
+  if (dz > 0 && tracker.detect_spacing_mm > dz)
+    every_ = std::max(1, static_cast<int>(tracker.detect_spacing_mm / dz + 1e-9));
+}
 
-PithResult PithTracker::next(const Slice& slice) {
-  PithResult r = detect_pith(slice, geometry_, options_, last_ ? &*last_ : nullptr);
-  if (last_ && r.found && r.confidence < min_confidence_) {
-    // Weak near the prior: search the whole slice and keep the better answer.
-    PithResult q = detect_pith(slice, geometry_, options_, nullptr);
-    if (q.found && q.confidence > r.confidence) r = q;
+std::vector<TrackedSlice> PithTracker::push(Slice slice) {
+  const std::int64_t wood = count_wood(slice, options_.wood_hu);
+  Held h;
+  h.index = pushed_++;
+  h.slice = std::move(slice);
+  h.wood_cells = wood;
+  held_.push_back(std::move(h));
+  std::vector<TrackedSlice> out;
+  while (next_ + half_ < pushed_) decide(next_++);
+  release(out, false);
+  return out;
+}
+
+std::vector<TrackedSlice> PithTracker::finish() {
+  std::vector<TrackedSlice> out;
+  while (next_ < pushed_) decide(next_++);
+  release(out, true);
+  return out;
+}
+
+void PithTracker::release(std::vector<TrackedSlice>& out, bool all) {
+  // Slice j is still needed by the centres up to j + half_.
+  while (!held_.empty() && (all || held_.front().index < next_ - half_)) {
+    Held& h = held_.front();
+    out.push_back({h.index, std::move(h.slice), h.pith, std::move(h.crop), h.has_centre, h.centre});
+    held_.pop_front();
+  }
+}
+
+Slice PithTracker::averaged(int centre, const Vec2* box_centre) const {
+  const int front = held_.front().index;
+  const Held& c = held_[static_cast<size_t>(centre - front)];
+  Slice out = c.slice;
+  std::vector<const Slice*> members;
+  for (const Held& h : held_) {
+    if (std::abs(h.index - centre) > half_ || h.index == centre) continue;
+    if (h.slice.width != c.slice.width || h.slice.height != c.slice.height) continue;
+    const double change = std::abs(static_cast<double>(h.wood_cells - c.wood_cells));
+    if (change > kMaxAreaChange * static_cast<double>(std::max<std::int64_t>(c.wood_cells, 1)))
+      continue;
+    members.push_back(&h.slice);
+  }
+  if (members.empty()) return out;
+  int x0 = 0, y0 = 0, x1 = out.width, y1 = out.height;
+  if (box_centre) {
+    const double b = options_.prior_radius_mm + kBoxBeyondSearchMm;
+    x0 = std::max(0, static_cast<int>((box_centre->x - b) / geometry_.spacing_x));
+    y0 = std::max(0, static_cast<int>((box_centre->y - b) / geometry_.spacing_y));
+    x1 = std::min(out.width, static_cast<int>((box_centre->x + b) / geometry_.spacing_x) + 2);
+    y1 = std::min(out.height, static_cast<int>((box_centre->y + b) / geometry_.spacing_y) + 2);
+  }
+  if (!box_centre) {
+    // Whole slice (no prior): a plain mean.
+    const float inv = 1.f / static_cast<float>(members.size() + 1);
+    for (int y = y0; y < y1; ++y) {
+      float* dst = &out.hu[static_cast<size_t>(y) * out.width];
+      for (const Slice* m : members) {
+        const float* src = &m->hu[static_cast<size_t>(y) * out.width];
+        for (int x = x0; x < x1; ++x) dst[x] += src[x];
+      }
+      for (int x = x0; x < x1; ++x) dst[x] *= inv;
+    }
+    return out;
+  }
+  const double pcx = box_centre->x / geometry_.spacing_x, pcy = box_centre->y / geometry_.spacing_y;
+  const double lrx = kLevelRadiusMm / geometry_.spacing_x, lry = kLevelRadiusMm / geometry_.spacing_y;
+  members.push_back(&c.slice);
+  std::vector<float> level;
+  for (const Slice* m : members)
+    level.push_back(wood_level(m->hu.data(), m->width, m->height, pcx, pcy, lrx, lry));
+  const float centre_level = level.back();
+  if (std::isnan(centre_level)) return out;
+  std::vector<float> sum(static_cast<size_t>(out.width)), cnt(sum.size());
+  for (int y = y0; y < y1; ++y) {
+    std::fill(sum.begin() + x0, sum.begin() + x1, 0.f);
+    std::fill(cnt.begin() + x0, cnt.begin() + x1, 0.f);
+    for (size_t k = 0; k < members.size(); ++k) {
+      if (std::isnan(level[k])) continue;
+      add_row(&members[k]->hu[static_cast<size_t>(y) * out.width], level[k], x0, x1, sum.data(),
+              cnt.data());
+    }
+    float* dst = &out.hu[static_cast<size_t>(y) * out.width];
+    for (int x = x0; x < x1; ++x) dst[x] = cnt[x] > 0 ? sum[x] / cnt[x] : centre_level;
+  }
+  return out;
+}
+
+void PithTracker::decide(int centre) {
+  const int front = held_.front().index;
+  Held& h = held_[static_cast<size_t>(centre - front)];
+  const Vec2* prior = last_ ? &*last_ : nullptr;
+  if (prior && centre % every_ != 0) {
+    // Not searched: the track's last confident pith stands in.
+    h.pith = PithResult{};
+    h.pith.pith_mm = *prior;
+    h.has_centre = true;
+    h.centre = *prior;
+    h.crop = make_crop(h.slice, geometry_, *prior, h.wood_cells);
+    return;
+  }
+  PithResult r;
+  if (prior) r = detect_pith(averaged(centre, prior), geometry_, options_, prior);
+  if (!prior || !r.found || r.confidence < tracker_.min_confidence) {
+    // No prior, or lost near it: search the whole (averaged) slice and keep the better answer.
+    const PithResult q = detect_pith(averaged(centre, nullptr), geometry_, options_, nullptr);
+    if (better(q, r)) r = q;
   }
   // A pith moves little from slice to slice: a jump is not trusted as the next prior.
-  const bool jump = last_ && r.found && (r.pith_mm - *last_).norm() > kMaxStepMm;
-  if (r.found && r.confidence >= min_confidence_ && !jump) last_ = r.pith_mm;
+  const bool jump = last_ && r.found && (r.pith_mm - *last_).norm() > tracker_.max_step_mm;
+  if (r.found && r.confidence >= tracker_.min_confidence && !jump) last_ = r.pith_mm;
+  h.pith = r;
+  h.has_centre = r.found || last_.has_value();
+  h.centre = r.found ? r.pith_mm : (last_ ? *last_ : Vec2{});
+  if (last_ || r.found) h.crop = make_crop(h.slice, geometry_, last_ ? *last_ : r.pith_mm, h.wood_cells);
+}
+
+namespace {
+
+PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<double>& z,
+                      const std::vector<Vec2>& track, const VolumeGeometry& g,
+                      const PithOptions& options, const PithRefineOptions& refine, int half,
+                      int i, const std::vector<std::vector<double>>* outlines) {
+  const SliceCrop& c = crops[static_cast<size_t>(i)];
+  if (c.hu.empty()) return {};
+  const int n = static_cast<int>(crops.size());
+  Slice avg;
+  avg.width = c.width;
+  avg.height = c.height;
+  avg.hu.assign(c.hu.size(), 0.f);
+  std::vector<float> count(avg.hu.size(), 0.f);
+  const double lrx = kLevelRadiusMm / g.spacing_x, lry = kLevelRadiusMm / g.spacing_y;
+  auto level_of = [&](const SliceCrop& m, int j) {
+    return wood_level(m.hu.data(), m.width, m.height, track[j].x / g.spacing_x - m.x0,
+                      track[j].y / g.spacing_y - m.y0, lrx, lry);
+  };
+  const float centre_level = level_of(c, i);
+  if (std::isnan(centre_level)) return {};
+  for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j) {
+    const SliceCrop& m = crops[static_cast<size_t>(j)];
+    if (m.hu.empty() || std::abs(z[j] - z[i]) > refine.average_half_window_mm + 1e-9) continue;
+    const double change = std::abs(static_cast<double>(m.wood_cells - c.wood_cells));
+    if (change > kMaxAreaChange * static_cast<double>(std::max<std::int64_t>(c.wood_cells, 1)))
+      continue;
+    const float level = j == i ? centre_level : level_of(m, j);
+    if (std::isnan(level)) continue;
+    // Pixel (x, y) of slice i sees the rings of slice j at (x, y) + drift.
+    const Vec2 d = track[j] - track[i];
+    const int dx = static_cast<int>(std::lround(d.x / g.spacing_x));
+    const int dy = static_cast<int>(std::lround(d.y / g.spacing_y));
+    // Crop-i pixel (x, y) -> crop-j pixel (x + ox, y + oy).
+    const int ox = c.x0 + dx - m.x0, oy = c.y0 + dy - m.y0;
+    const int xa = std::max(0, -ox), xb = std::min(c.width, m.width - ox);
+    const int ya = std::max(0, -oy), yb = std::min(c.height, m.height - oy);
+    for (int y = ya; y < yb; ++y)
+      add_row(&m.hu[static_cast<size_t>(y + oy) * m.width + ox], level, xa, xb,
+              &avg.hu[static_cast<size_t>(y) * c.width], &count[static_cast<size_t>(y) * c.width]);
+  }
+  for (size_t k = 0; k < avg.hu.size(); ++k)
+    avg.hu[k] = count[k] > 0 ? avg.hu[k] / count[k] : centre_level;
+  const Vec2 origin{c.x0 * g.spacing_x, c.y0 * g.spacing_y};
+  const Vec2 prior = track[static_cast<size_t>(i)] - origin;
+  const std::vector<double>* outline =
+      outlines && !(*outlines)[static_cast<size_t>(i)].empty() ? &(*outlines)[static_cast<size_t>(i)] : nullptr;
+  PithResult r = refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline);
+  if (r.found) r.pith_mm = r.pith_mm + origin;
   return r;
+}
+
+}  // namespace
+
+std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
+                                          const std::vector<double>& z,
+                                          const std::vector<Vec2>& track,
+                                          const VolumeGeometry& geometry,
+                                          const PithOptions& options,
+                                          const PithRefineOptions& refine,
+                                          const std::vector<std::vector<double>>* outlines) {
+  assert(crops.size() == z.size() && z.size() == track.size());
+  const int n = static_cast<int>(crops.size());
+  std::vector<PithResult> out(crops.size());
+  const double dz = geometry.slice_spacing();
+  int half = 0;
+  if (refine.average_half_window_mm > 0 && refine.max_half_slices > 0) {
+    const int k = dz > 0 ? static_cast<int>(refine.average_half_window_mm / dz + 1e-9) : 1;
+    half = std::clamp(k, 1, refine.max_half_slices);
+  }
+  int every = 1;
+  if (dz > 0 && refine.refine_spacing_mm > dz)
+    every = std::max(1, static_cast<int>(refine.refine_spacing_mm / dz + 1e-9));
+  const int threads = std::clamp(refine.threads, 1, 64);
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int i = next++; i < n; i = next++)
+      if (i % every == 0 || i == n - 1)
+        out[static_cast<size_t>(i)] =
+            refine_one(crops, z, track, geometry, options, refine, half, i, outlines);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  return out;
+}
+
+std::vector<PithResult> track_pith(const std::vector<Slice>& slices,
+                                   const VolumeGeometry& geometry, const PithOptions& options,
+                                   const PithTrackerOptions& tracker) {
+  std::vector<PithResult> out(slices.size());
+  PithTracker t(geometry, options, tracker);
+  auto take = [&](std::vector<TrackedSlice> done) {
+    for (const TrackedSlice& d : done) out[static_cast<size_t>(d.index)] = d.pith;
+  };
+  for (const Slice& s : slices) take(t.push(s));
+  take(t.finish());
+  return out;
 }
 
 namespace {
@@ -37,15 +330,18 @@ double median(std::vector<double> v) {
   return *mid;
 }
 
-// Weighted local linear fit of (z, x), (z, y) at z0; false if the weights are degenerate.
+// Weighted local linear fit of (z, x), (z, y) at z0; false if the weights are degenerate. `z`
+// is increasing, so only the slices within h of z0 are visited.
 bool local_linear(const std::vector<double>& z, const std::vector<Vec2>& p,
                   const std::vector<double>& w, double z0, double h, Vec2* out) {
   double s0 = 0, s1 = 0, s2 = 0, tx = 0, ty = 0, ux = 0, uy = 0;
-  for (size_t i = 0; i < z.size(); ++i) {
+  const size_t lo = static_cast<size_t>(std::lower_bound(z.begin(), z.end(), z0 - h) - z.begin());
+  for (size_t i = lo; i < z.size() && z[i] < z0 + h; ++i) {
     if (w[i] <= 0) continue;
-    const double d = (z[i] - z0) / h;
-    if (std::abs(d) >= 1) continue;
-    const double k = std::pow(1 - std::pow(std::abs(d), 3), 3) * w[i];
+    const double d = std::abs(z[i] - z0) / h;
+    if (d >= 1) continue;
+    const double c = 1 - d * d * d;
+    const double k = c * c * c * w[i];  // tricube
     const double dz = z[i] - z0;
     s0 += k, s1 += k * dz, s2 += k * dz * dz;
     tx += k * p[i].x, ty += k * p[i].y;
@@ -65,7 +361,8 @@ bool local_linear(const std::vector<double>& z, const std::vector<Vec2>& p,
 
 std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
                                     const std::vector<PithResult>& raw,
-                                    const PithTrackOptions& options) {
+                                    const PithTrackOptions& options,
+                                    std::vector<bool>* outlier) {
   assert(z.size() == raw.size());
   const size_t n = z.size();
   std::vector<Vec2> p(n);
@@ -97,8 +394,10 @@ std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
     std::vector<double> xs, ys;
     for (size_t i = 0; i < n; ++i) {
       xs.clear(), ys.clear();
-      for (size_t j = 0; j < n; ++j)
-        if (prior_w[j] > 0 && std::abs(z[j] - z[i]) <= options.window_mm)
+      const size_t lo = static_cast<size_t>(
+          std::lower_bound(z.begin(), z.end(), z[i] - options.window_mm) - z.begin());
+      for (size_t j = lo; j < n && z[j] <= z[i] + options.window_mm; ++j)
+        if (prior_w[j] > 0)
           xs.push_back(p[j].x), ys.push_back(p[j].y);
       if (xs.size() >= 3) {
         const Vec2 m{median(xs), median(ys)};
@@ -120,6 +419,10 @@ std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
       robust[i] = u < 1 ? (1 - u * u) * (1 - u * u) : 0.0;
     }
     do_fit(h);
+  }
+  if (outlier) {
+    outlier->assign(n, false);
+    for (size_t i = 0; i < n; ++i) (*outlier)[i] = prior_w[i] > 0 && robust[i] <= 0;
   }
   return fit;
 }

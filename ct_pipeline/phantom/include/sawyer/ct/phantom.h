@@ -89,6 +89,7 @@ struct PhantomOptions {
   double ring_amplitude = 0.08;  // peak-to-peak ring modulation, fraction of dry density
   double knot_noise = 0.05;      // the field's knot outline noise (0: exact diameters)
   bool bed = true;               // scanner bed (belt and rails) under the log
+  double bed_gap_mm = 0.5;       // belt below the log's lowest point; 0: touching
   bool clutter = false;          // steel support bars and a chain in some slices
   int drop_slices = 0;           // missing slices (never the first or the last)
   HuTable hu;

@@ -1,21 +1,23 @@
-// The stem pass of `sawyer scan` (issue 4): every slice of a CT scan through the per-slice
-// detectors of stem_detect.h, the pith tracked from slice to slice and smoothed along z with an
-// outlier-robust filter, the contours re-centred on the smoothed pith, and the result assembled
-// into the stem of a LogModel.
+// The stem pass of `sawyer scan` (issue 4): the pith tracked from slice to slice on slices
+// averaged along z (pith_track.h), the outer contour and heartwood border of every slice
+// measured around it on worker threads (stem_detect.h), the track smoothed, refined twice on
+// drift-compensated averages with the rings taken as homothetic to the contour, smoothed again,
+// the contours re-centred on the final pith, and the result assembled into a LogModel's Stem.
 //
 //   auto src = open_ct(folder);
 //   Result<StemScan> s = scan_stem(*src.value(), {}, [](int done, int all) { ... });
 //   LogModel log; log.stem = s.value().stem;
 //
-// The scan streams: slices are read once, in order, on as many threads as asked (each thread
-// owns a contiguous run of slices and tracks the pith within it); memory holds one slice per
-// thread plus the per-slice results.
+// The scan streams: slices are read once, in order; memory holds the averaging window's slices
+// (about 2 x 20 mm of them), a 90 mm square crop around the pith of every slice (32 KB at
+// 0.8 mm) and the per-slice results.
 #pragma once
 
 #include <functional>
 #include <vector>
 
 #include "sawyer/core/result.h"
+#include "sawyer/ct/pith_track.h"
 #include "sawyer/ct/slice_source.h"
 #include "sawyer/ct/stem_detect.h"
 #include "sawyer/model/log_model.h"
@@ -27,18 +29,23 @@ struct StemScanOptions {
   ContourOptions contour;
   HeartwoodOptions heartwood;
   int threads = 0;  // 0: hardware concurrency
-  // Robust smoothing of the pith along z: a running median over this many slices on each side
-  // rejects jumps (knot whorls, cracks), then a moving average of the same half-width.
-  int pith_half_window = 3;
-  // A raw pith farther than this from the running median is an outlier and is replaced.
-  double pith_outlier_mm = 3.0;
+  // The pith: tracked on slices averaged along z, smoothed (LOWESS), then refined on
+  // drift-compensated averages searching refine.search_radius_mm around the track, smoothed,
+  // and refined once more within refine_again_mm (negative: no second refinement).
+  PithTrackerOptions tracker;
+  PithTrackOptions track;
+  PithRefineOptions refine;
+  double refine_again_mm = 0.5;
 };
 
 struct StemSliceRecord {
   double z = 0;               // mm, from the scan's geometry
-  PithResult pith_raw;        // the detector's answer (tracked within a thread's run)
+  PithResult pith_raw;        // the tracker's answer (first pass; not every slice is searched)
+  bool measured = false;      // contour and heartwood measured around `centre`
+  Vec2 centre;
+  PithResult pith_refined;    // the last refinement pass's answer
   Vec2 pith;                  // after robust smoothing along z
-  bool pith_outlier = false;  // the raw pith was replaced
+  bool pith_outlier = false;  // the robust smoothing rejected the refined pith
   ContourResult contour;      // around `pith` (re-centred from pith_raw)
   HeartwoodResult heartwood;  // around `pith`
 };
@@ -47,6 +54,8 @@ struct StemScan {
   std::vector<StemSliceRecord> slices;
   Stem stem;
   double seconds = 0;  // wall time of the whole pass, reading included
+  // Of which: reading, first pith track, contour and heartwood (overlapped); pith refinement.
+  double seconds_tracking = 0, seconds_refining = 0;
   int threads = 1;
   double slices_per_second() const { return seconds > 0 ? slices.size() / seconds : 0; }
 };
@@ -60,10 +69,5 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
 // no valid neighbour covers them. Used after the pith is smoothed; exposed for tests.
 void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& radius,
                       std::vector<bool>& valid);
-
-// Robust pith track: running median (half-window h) to find outliers, outliers replaced by the
-// median, then a moving average. Slices with found == false are filled from their neighbours.
-std::vector<Vec2> smooth_pith(const std::vector<PithResult>& raw, int half_window,
-                              double outlier_mm, std::vector<bool>* outlier);
 
 }  // namespace sawyer::ct

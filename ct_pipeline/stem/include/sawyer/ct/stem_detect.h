@@ -1,6 +1,7 @@
 // Stem analysis of one CT slice (issue 4): where the pith is, the outer contour under bark as a
 // radius per angle around it, and the heartwood/sapwood border. Per-slice detectors here; the
-// tracking along z, smoothing and assembly into a LogModel's Stem live in stem_analysis.h.
+// tracking and refinement along z are in pith_track.h, the assembly into a LogModel's Stem in
+// stem_scan.h.
 //
 // Frames (DESIGN.md 3): slice pixels (col, row) map to x = col * spacing_x, y = row * spacing_y
 // (mm, relative to the slice's pixel (0, 0)); azimuth omega = atan2(y - pith_y, x - pith_x).
@@ -21,6 +22,10 @@
 
 namespace sawyer::ct {
 
+// Denser than any wood: the bed's rubber belt (+200 HU), its rails and clutter steel. Sound knots
+// are about 0 HU and wet sapwood -50, so wood lies between PithOptions::wood_hu and this.
+inline constexpr double kMaxWoodHu = 150.0;
+
 struct PithOptions {
   // Search radius around the prior (mm) when one is given.
   double prior_radius_mm = 15.0;
@@ -36,6 +41,19 @@ struct PithResult {
 
 PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,
                        const PithOptions& options, const Vec2* prior_mm);
+
+// Ring-profile refinement: the centre within search_mm of `start` around which the slice's
+// annual rings line up best. For each candidate centre the wood within 24 mm is binned by ring
+// radius and the energy of the binned profile's ring-scale detail is scored (a matched filter
+// for concentric rings: every pixel of a ring adds coherently, where per-pixel gradient
+// directions drown in noise); pixels far from the wood level (knots, the heartwood step,
+// cracks) are left out. With `outline` (the outer radius under bark at equally spaced azimuths
+// around `start`) the rings are taken as homothetic to it about the pith, as the log model's
+// stem time has them (DESIGN.md 5); without, as circles, which leans towards the centre of an
+// eccentric section by a fraction of a millimetre. Best on a slice averaged along z
+// (pith_track.h). confidence: signal share of the profile energy (0..1).
+PithResult refine_pith_concentric(const Slice& slice, const VolumeGeometry& geometry, Vec2 start,
+                                  double search_mm, const std::vector<double>* outline);
 
 struct ContourOptions {
   int n_angles = 360;
