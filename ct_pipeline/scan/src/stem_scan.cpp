@@ -189,6 +189,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     dispatch(tracker.push(std::move(slice)));
   }
   if (status) dispatch(tracker.finish());
+  scan.pith_full_searches = tracker.full_searches();
   queue.close();
   for (auto& w : workers) w.join();
   if (!status) return status.error();
@@ -205,28 +206,34 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
   std::vector<double> z(g.z.begin(), g.z.begin() + n);
   // The first track, then refinement passes on drift-compensated averages with the rings
   // assumed homothetic to the outer contour (pith_track.h), each smoothed again.
-  std::vector<Vec2> track = smooth_pith_track(z, raw, options.track);
-  std::vector<PithResult> refined;
-  for (double search : {options.refine.search_radius_mm, options.refine_again_mm}) {
-    if (search < 0) continue;
+  std::vector<Vec2> track = smooth_pith_track(z, raw, options.first_track);
+  auto outlines_around = [&](const std::vector<Vec2>& centre) {
     std::vector<std::vector<double>> outlines(static_cast<size_t>(n));
     for (int i = 0; i < n; ++i) {
       const StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
       if (!rec.measured) continue;
       std::vector<double> r = rec.contour.radius;
       std::vector<bool> v = rec.contour.valid;
-      recentre_contour(rec.centre, track[static_cast<size_t>(i)], r, v);
+      recentre_contour(rec.centre, centre[static_cast<size_t>(i)], r, v);
       if (fill_circular(r, v)) outlines[static_cast<size_t>(i)] = std::move(r);
     }
-    PithRefineOptions ro = options.refine;
-    ro.search_radius_mm = search;
-    ro.threads = threads;
-    refined = refine_pith_track(crops, z, track, g, options.pith, ro, &outlines);
-    std::vector<Vec2> t2 = smooth_pith_track(z, refined, options.track);
-    if (t2.empty()) {  // nothing refined (no contour anywhere): keep the first track
-      refined.clear();
-      break;
-    }
+    return outlines;
+  };
+  PithRefineOptions ro = options.refine;
+  ro.threads = threads;
+  std::vector<std::vector<double>> outlines = outlines_around(track);
+  std::vector<PithResult> refined = refine_pith_track(crops, z, track, g, options.pith, ro, &outlines);
+  std::vector<Vec2> t2 = smooth_pith_track(z, refined, options.track);
+  if (t2.empty()) {
+    refined.clear();  // nothing refined (no contour anywhere): keep the first track
+  } else if (options.chain_search_mm >= 0) {
+    track = std::move(t2);
+    outlines = outlines_around(track);
+    ro.search_radius_mm = options.chain_search_mm;
+    refined = chain_pith_track(crops, z, track, refined, g, options.pith, ro, &outlines);
+    t2 = smooth_pith_track(z, refined, options.track);
+    if (!t2.empty()) track = std::move(t2);
+  } else {
     track = std::move(t2);
   }
   scan.seconds_refining =

@@ -664,7 +664,7 @@ PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,
     return {};
   if (prior_mm) {
     PithResult r = detect_with_prior(slice, geometry, options, *prior_mm);
-    if (r.found) return r;
+    if (r.found || !options.fall_back_to_whole_slice) return r;
   }
   return detect_without_prior(slice, geometry, options);
 }

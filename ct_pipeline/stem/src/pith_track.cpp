@@ -133,10 +133,9 @@ void PithTracker::release(std::vector<TrackedSlice>& out, bool all) {
   }
 }
 
-Slice PithTracker::averaged(int centre, const Vec2* box_centre) const {
+Slice PithTracker::averaged(int centre, const Vec2* box_centre, Vec2* origin) const {
   const int front = held_.front().index;
   const Held& c = held_[static_cast<size_t>(centre - front)];
-  Slice out = c.slice;
   std::vector<const Slice*> members;
   for (const Held& h : held_) {
     if (std::abs(h.index - centre) > half_ || h.index == centre) continue;
@@ -146,28 +145,37 @@ Slice PithTracker::averaged(int centre, const Vec2* box_centre) const {
       continue;
     members.push_back(&h.slice);
   }
-  if (members.empty()) return out;
-  int x0 = 0, y0 = 0, x1 = out.width, y1 = out.height;
-  if (box_centre) {
-    const double b = options_.prior_radius_mm + kBoxBeyondSearchMm;
-    x0 = std::max(0, static_cast<int>((box_centre->x - b) / geometry_.spacing_x));
-    y0 = std::max(0, static_cast<int>((box_centre->y - b) / geometry_.spacing_y));
-    x1 = std::min(out.width, static_cast<int>((box_centre->x + b) / geometry_.spacing_x) + 2);
-    y1 = std::min(out.height, static_cast<int>((box_centre->y + b) / geometry_.spacing_y) + 2);
-  }
+  *origin = {0, 0};
   if (!box_centre) {
     // Whole slice (no prior): a plain mean.
+    Slice out = c.slice;
+    if (members.empty()) return out;
     const float inv = 1.f / static_cast<float>(members.size() + 1);
-    for (int y = y0; y < y1; ++y) {
+    for (int y = 0; y < out.height; ++y) {
       float* dst = &out.hu[static_cast<size_t>(y) * out.width];
       for (const Slice* m : members) {
         const float* src = &m->hu[static_cast<size_t>(y) * out.width];
-        for (int x = x0; x < x1; ++x) dst[x] += src[x];
+        for (int x = 0; x < out.width; ++x) dst[x] += src[x];
       }
-      for (int x = x0; x < x1; ++x) dst[x] *= inv;
+      for (int x = 0; x < out.width; ++x) dst[x] *= inv;
     }
     return out;
   }
+  // A box around the prior, as its own image with pixel (x0, y0) of the slice at (0, 0).
+  const double b = options_.prior_radius_mm + kBoxBeyondSearchMm;
+  const int x0 = std::max(0, static_cast<int>((box_centre->x - b) / geometry_.spacing_x));
+  const int y0 = std::max(0, static_cast<int>((box_centre->y - b) / geometry_.spacing_y));
+  const int x1 = std::min(c.slice.width, static_cast<int>((box_centre->x + b) / geometry_.spacing_x) + 2);
+  const int y1 = std::min(c.slice.height, static_cast<int>((box_centre->y + b) / geometry_.spacing_y) + 2);
+  Slice out;
+  out.index = c.slice.index;
+  out.z = c.slice.z;
+  out.width = std::max(0, x1 - x0);
+  out.height = std::max(0, y1 - y0);
+  out.hu.assign(static_cast<size_t>(out.width) * out.height, 0.f);
+  *origin = {x0 * geometry_.spacing_x, y0 * geometry_.spacing_y};
+  if (out.hu.empty()) return out;
+  const int w = c.slice.width;
   const double pcx = box_centre->x / geometry_.spacing_x, pcy = box_centre->y / geometry_.spacing_y;
   const double lrx = kLevelRadiusMm / geometry_.spacing_x, lry = kLevelRadiusMm / geometry_.spacing_y;
   members.push_back(&c.slice);
@@ -175,18 +183,22 @@ Slice PithTracker::averaged(int centre, const Vec2* box_centre) const {
   for (const Slice* m : members)
     level.push_back(wood_level(m->hu.data(), m->width, m->height, pcx, pcy, lrx, lry));
   const float centre_level = level.back();
-  if (std::isnan(centre_level)) return out;
-  std::vector<float> sum(static_cast<size_t>(out.width)), cnt(sum.size());
-  for (int y = y0; y < y1; ++y) {
-    std::fill(sum.begin() + x0, sum.begin() + x1, 0.f);
-    std::fill(cnt.begin() + x0, cnt.begin() + x1, 0.f);
+  if (std::isnan(centre_level)) {
+    for (int y = 0; y < out.height; ++y)
+      std::copy_n(&c.slice.hu[static_cast<size_t>(y0 + y) * w + x0], out.width,
+                  &out.hu[static_cast<size_t>(y) * out.width]);
+    return out;
+  }
+  std::vector<float> cnt(static_cast<size_t>(out.width));
+  for (int y = 0; y < out.height; ++y) {
+    float* dst = &out.hu[static_cast<size_t>(y) * out.width];
+    std::fill(cnt.begin(), cnt.end(), 0.f);
     for (size_t k = 0; k < members.size(); ++k) {
       if (std::isnan(level[k])) continue;
-      add_row(&members[k]->hu[static_cast<size_t>(y) * out.width], level[k], x0, x1, sum.data(),
+      add_row(&members[k]->hu[static_cast<size_t>(y0 + y) * w + x0], level[k], 0, out.width, dst,
               cnt.data());
     }
-    float* dst = &out.hu[static_cast<size_t>(y) * out.width];
-    for (int x = x0; x < x1; ++x) dst[x] = cnt[x] > 0 ? sum[x] / cnt[x] : centre_level;
+    for (int x = 0; x < out.width; ++x) dst[x] = cnt[x] > 0 ? dst[x] / cnt[x] : centre_level;
   }
   return out;
 }
@@ -205,10 +217,25 @@ void PithTracker::decide(int centre) {
     return;
   }
   PithResult r;
-  if (prior) r = detect_pith(averaged(centre, prior), geometry_, options_, prior);
+  Vec2 origin;
+  if (prior) {
+    const Slice box = averaged(centre, prior, &origin);
+    const Vec2 local = *prior - origin;
+    PithOptions near = options_;
+    near.fall_back_to_whole_slice = false;  // the box is not the whole slice
+    r = detect_pith(box, geometry_, near, &local);
+    if (r.found && tracker_.ring_search_mm > 0) {
+      // The vote is coarse at this noise: line the rings up around it (circles; the contour
+      // is not known yet).
+      const PithResult q = refine_pith_concentric(box, geometry_, r.pith_mm, tracker_.ring_search_mm, nullptr);
+      if (q.found) r.pith_mm = q.pith_mm;
+    }
+    if (r.found) r.pith_mm = r.pith_mm + origin;
+  }
   if (!prior || !r.found || r.confidence < tracker_.min_confidence) {
     // No prior, or lost near it: search the whole (averaged) slice and keep the better answer.
-    const PithResult q = detect_pith(averaged(centre, nullptr), geometry_, options_, nullptr);
+    ++full_searches_;
+    const PithResult q = detect_pith(averaged(centre, nullptr, &origin), geometry_, options_, nullptr);
     if (better(q, r)) r = q;
   }
   // A pith moves little from slice to slice: a jump is not trusted as the next prior.
@@ -222,10 +249,23 @@ void PithTracker::decide(int centre) {
 
 namespace {
 
+int refine_half_window(const VolumeGeometry& g, const PithRefineOptions& refine) {
+  const double dz = g.slice_spacing();
+  if (!(refine.average_half_window_mm > 0) || refine.max_half_slices <= 0) return 0;
+  const int k = dz > 0 ? static_cast<int>(refine.average_half_window_mm / dz + 1e-9) : 1;
+  return std::clamp(k, 1, refine.max_half_slices);
+}
+
+int refine_every(const VolumeGeometry& g, const PithRefineOptions& refine) {
+  const double dz = g.slice_spacing();
+  if (!(dz > 0) || !(refine.refine_spacing_mm > dz)) return 1;
+  return std::max(1, static_cast<int>(refine.refine_spacing_mm / dz + 1e-9));
+}
+
 PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<double>& z,
                       const std::vector<Vec2>& track, const VolumeGeometry& g,
                       const PithOptions& options, const PithRefineOptions& refine, int half,
-                      int i, const std::vector<std::vector<double>>* outlines) {
+                      int i, const std::vector<std::vector<double>>* outlines, Vec2 start) {
   const SliceCrop& c = crops[static_cast<size_t>(i)];
   if (c.hu.empty()) return {};
   const int n = static_cast<int>(crops.size());
@@ -264,7 +304,7 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
   for (size_t k = 0; k < avg.hu.size(); ++k)
     avg.hu[k] = count[k] > 0 ? avg.hu[k] / count[k] : centre_level;
   const Vec2 origin{c.x0 * g.spacing_x, c.y0 * g.spacing_y};
-  const Vec2 prior = track[static_cast<size_t>(i)] - origin;
+  const Vec2 prior = start - origin;
   const std::vector<double>* outline =
       outlines && !(*outlines)[static_cast<size_t>(i)].empty() ? &(*outlines)[static_cast<size_t>(i)] : nullptr;
   PithResult r = refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline);
@@ -284,27 +324,117 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
   assert(crops.size() == z.size() && z.size() == track.size());
   const int n = static_cast<int>(crops.size());
   std::vector<PithResult> out(crops.size());
-  const double dz = geometry.slice_spacing();
-  int half = 0;
-  if (refine.average_half_window_mm > 0 && refine.max_half_slices > 0) {
-    const int k = dz > 0 ? static_cast<int>(refine.average_half_window_mm / dz + 1e-9) : 1;
-    half = std::clamp(k, 1, refine.max_half_slices);
-  }
-  int every = 1;
-  if (dz > 0 && refine.refine_spacing_mm > dz)
-    every = std::max(1, static_cast<int>(refine.refine_spacing_mm / dz + 1e-9));
+  const int half = refine_half_window(geometry, refine);
+  const int every = refine_every(geometry, refine);
   const int threads = std::clamp(refine.threads, 1, 64);
   std::atomic<int> next{0};
   auto work = [&] {
     for (int i = next++; i < n; i = next++)
       if (i % every == 0 || i == n - 1)
         out[static_cast<size_t>(i)] =
-            refine_one(crops, z, track, geometry, options, refine, half, i, outlines);
+            refine_one(crops, z, track, geometry, options, refine, half, i, outlines,
+                       track[static_cast<size_t>(i)]);
   };
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
+  return out;
+}
+
+namespace {
+
+// Where the chain expects the pith at `zk`: a line through its last points (up to kChainPoints
+// within kChainSpanMm of the newest), refitted once without points off it by more than
+// kChainRejectMm; with fewer than three points, the newest point moved as the track moves.
+constexpr int kChainPoints = 6;
+constexpr double kChainSpanMm = 40.0, kChainRejectMm = 0.5;
+
+Vec2 chain_predict(const std::vector<std::pair<double, Vec2>>& hist, double zk,
+                   const std::vector<double>& z, const std::vector<Vec2>& track, int last, int k) {
+  const Vec2 moved = hist.back().second + (track[static_cast<size_t>(k)] - track[static_cast<size_t>(last)]);
+  std::vector<std::pair<double, Vec2>> pts;
+  for (auto it = hist.rbegin(); it != hist.rend() && static_cast<int>(pts.size()) < kChainPoints; ++it)
+    if (std::abs(it->first - hist.back().first) <= kChainSpanMm) pts.push_back(*it);
+  if (pts.size() < 3) return moved;
+  std::vector<bool> use(pts.size(), true);
+  Vec2 a, b;  // p = a + b (z - zk)
+  for (int pass = 0; pass < 2; ++pass) {
+    double s0 = 0, s1 = 0, s2 = 0;
+    Vec2 t0, t1;
+    for (size_t q = 0; q < pts.size(); ++q) {
+      if (!use[q]) continue;
+      const double d = pts[q].first - zk;
+      s0 += 1, s1 += d, s2 += d * d;
+      t0 = t0 + pts[q].second, t1 = t1 + d * pts[q].second;
+    }
+    const double den = s0 * s2 - s1 * s1;
+    if (s0 < 2 || !(den > 1e-9)) return moved;
+    a = (1.0 / den) * (s2 * t0 - s1 * t1);
+    b = (1.0 / den) * (s0 * t1 - s1 * t0);
+    for (size_t q = 0; q < pts.size(); ++q)
+      use[q] = (pts[q].second - (a + (pts[q].first - zk) * b)).norm() <= kChainRejectMm;
+  }
+  (void)z;
+  return a;
+}
+
+}  // namespace
+
+std::vector<PithResult> chain_pith_track(const std::vector<SliceCrop>& crops,
+                                         const std::vector<double>& z,
+                                         const std::vector<Vec2>& track,
+                                         const std::vector<PithResult>& seeds,
+                                         const VolumeGeometry& geometry,
+                                         const PithOptions& options,
+                                         const PithRefineOptions& refine,
+                                         const std::vector<std::vector<double>>* outlines) {
+  assert(crops.size() == z.size() && z.size() == track.size() && seeds.size() == z.size());
+  const int n = static_cast<int>(crops.size());
+  std::vector<PithResult> out(crops.size());
+  const int half = refine_half_window(geometry, refine);
+  const int every = refine_every(geometry, refine);
+  std::vector<int> idx;
+  for (int i = 0; i < n; ++i)
+    if (i % every == 0 || i == n - 1) idx.push_back(i);
+  // Seed: the refined slice nearest the middle that agrees with the smoothed track.
+  int seed = -1;
+  for (size_t q = 0; q < idx.size(); ++q) {
+    const int i = idx[q];
+    const PithResult& r = seeds[static_cast<size_t>(i)];
+    if (!r.found || (r.pith_mm - track[static_cast<size_t>(i)]).norm() > refine.seed_agreement_mm)
+      continue;
+    if (seed < 0 || std::abs(i - n / 2) < std::abs(idx[static_cast<size_t>(seed)] - n / 2))
+      seed = static_cast<int>(q);
+  }
+  if (seed < 0) {  // nothing to anchor on: refine around the track
+    for (int i : idx)
+      out[static_cast<size_t>(i)] = refine_one(crops, z, track, geometry, options, refine, half, i,
+                                               outlines, track[static_cast<size_t>(i)]);
+    return out;
+  }
+  const int s0 = idx[static_cast<size_t>(seed)];
+  out[static_cast<size_t>(s0)] = seeds[static_cast<size_t>(s0)];
+  auto walk = [&](int dir) {
+    std::vector<std::pair<double, Vec2>> hist{{z[static_cast<size_t>(s0)], seeds[static_cast<size_t>(s0)].pith_mm}};
+    int last = s0;
+    for (int q = seed + dir; q >= 0 && q < static_cast<int>(idx.size()); q += dir) {
+      const int k = idx[static_cast<size_t>(q)];
+      const Vec2 start = chain_predict(hist, z[static_cast<size_t>(k)], z, track, last, k);
+      const PithResult r =
+          refine_one(crops, z, track, geometry, options, refine, half, k, outlines, start);
+      out[static_cast<size_t>(k)] = r;
+      if (r.found) hist.push_back({z[static_cast<size_t>(k)], r.pith_mm}), last = k;
+    }
+  };
+  if (refine.threads >= 2) {
+    std::thread up(walk, 1);
+    walk(-1);
+    up.join();
+  } else {
+    walk(1);
+    walk(-1);
+  }
   return out;
 }
 

@@ -31,11 +31,14 @@ struct StemScanOptions {
   int threads = 0;  // 0: hardware concurrency
   // The pith: tracked on slices averaged along z, smoothed (LOWESS), then refined on
   // drift-compensated averages searching refine.search_radius_mm around the track, smoothed,
-  // and refined once more within refine_again_mm (negative: no second refinement).
+  // then refined once more as a chain from the middle outwards, and smoothed.
   PithTrackerOptions tracker;
+  // Smoothing of the first track (few, noisy detections: a wide window) and of the refined ones.
+  PithTrackOptions first_track{.window_mm = 60.0};
   PithTrackOptions track;
   PithRefineOptions refine;
-  double refine_again_mm = 0.5;
+  // Search radius (mm) of the chain pass (chain_pith_track); negative: no chain.
+  double chain_search_mm = 1.0;
 };
 
 struct StemSliceRecord {
@@ -57,6 +60,7 @@ struct StemScan {
   // Of which: reading, first pith track, contour and heartwood (overlapped); pith refinement.
   double seconds_tracking = 0, seconds_refining = 0;
   int threads = 1;
+  int pith_full_searches = 0;  // slices searched whole by the first track (lost or first)
   double slices_per_second() const { return seconds > 0 ? slices.size() / seconds : 0; }
 };
 

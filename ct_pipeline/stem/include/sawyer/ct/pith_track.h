@@ -43,6 +43,9 @@ struct PithTrackerOptions {
   // The first track needs no more than a detection every this many mm along z (the smoothing
   // interpolates); the slices between are not searched (found = false, pith_mm = the prior).
   double detect_spacing_mm = 15.0;
+  // Each detection near the prior is then refined by the ring profile (circles) within this
+  // radius (mm); 0: not.
+  double ring_search_mm = 3.0;
 };
 
 // A full-resolution window of a slice around its pith, kept for the refinement pass; pixel
@@ -76,6 +79,8 @@ class PithTracker {
   std::vector<TrackedSlice> push(Slice slice);
   std::vector<TrackedSlice> finish();
   int half_window() const { return half_; }
+  // Searches of a whole slice so far (the first slice, and wherever the track was lost).
+  int full_searches() const { return full_searches_; }
 
  private:
   struct Held {
@@ -89,7 +94,9 @@ class PithTracker {
   };
   void decide(int centre);
   void release(std::vector<TrackedSlice>& out, bool all);
-  Slice averaged(int centre, const Vec2* box_centre) const;
+  // The mean of the slices around `centre`: over the whole slice without a box centre, else over
+  // a box around it returned as its own image, slice pixel `origin` (mm) at its (0, 0).
+  Slice averaged(int centre, const Vec2* box_centre, Vec2* origin) const;
 
   VolumeGeometry geometry_;
   PithOptions options_;
@@ -97,6 +104,7 @@ class PithTracker {
   int half_ = 0;
   int every_ = 1;
   int pushed_ = 0;
+  int full_searches_ = 0;
   int next_ = 0;  // next index to decide
   std::deque<Held> held_;  // indices next_ - half_ .. pushed_ - 1 (those still needed)
   std::optional<Vec2> last_;
@@ -115,6 +123,8 @@ struct PithRefineOptions {
   double search_radius_mm = 3.0;
   // Refine every k-th slice with k = this / spacing (at least 1), and the last slice.
   double refine_spacing_mm = 10.0;
+  // chain_pith_track: a seed must agree with the smoothed track within this (mm).
+  double seed_agreement_mm = 0.3;
   int threads = 1;
 };
 
@@ -129,6 +139,20 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const PithOptions& options,
                                           const PithRefineOptions& refine,
                                           const std::vector<std::vector<double>>* outlines = nullptr);
+
+// Third pass, a chain: from the refined slice nearest the middle that agrees with the smoothed
+// track (`seeds` are the second pass's answers), outwards in both directions, each slice refined
+// within refine.search_radius_mm of where the chain's own recent answers (a robust line)
+// predict it. Carries the accuracy of the middle into the scan's ends, where the smoothed track
+// has neighbours on one side only. Without a seed it refines around `track`.
+std::vector<PithResult> chain_pith_track(const std::vector<SliceCrop>& crops,
+                                         const std::vector<double>& z,
+                                         const std::vector<Vec2>& track,
+                                         const std::vector<PithResult>& seeds,
+                                         const VolumeGeometry& geometry,
+                                         const PithOptions& options,
+                                         const PithRefineOptions& refine,
+                                         const std::vector<std::vector<double>>* outlines = nullptr);
 
 struct PithTrackOptions {
   // Half-width (mm along z) of the local linear fit; the pith of a log bends slowly.

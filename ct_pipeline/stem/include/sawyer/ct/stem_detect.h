@@ -31,6 +31,8 @@ struct PithOptions {
   double prior_radius_mm = 15.0;
   // HU threshold separating wood (and bark) from air, used to find the log's extent.
   double wood_hu = -700.0;
+  // With a prior and no wood near it: search the whole slice (true) or report not found.
+  bool fall_back_to_whole_slice = true;
 };
 
 struct PithResult {
