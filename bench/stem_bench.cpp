@@ -91,7 +91,7 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
     const double e = (rec.pith - want).norm();
     err.push_back(e);
     if (verbose)
-      std::printf("  %s %s slice %2zu z %.0f: raw %s refined %s smoothed %.2f mm%s\n", log.id.c_str(),
+      std::printf("  truth %.2f %.2f ", want.x, want.y), std::printf("  %s %s slice %2zu z %.0f: raw %s refined %s smoothed %.2f mm%s\n", log.id.c_str(),
                   condition.c_str(), j, z,
                   rec.pith_raw.found ? std::to_string((rec.pith_raw.pith_mm - want).norm()).substr(0, 5).c_str() : "-",
                   rec.pith_refined.found ? std::to_string((rec.pith_refined.pith_mm - want).norm()).substr(0, 5).c_str() : "-",

@@ -219,22 +219,40 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     }
     return outlines;
   };
+  // A wide refinement on every other refined slice, then narrower ones on all of them, each
+  // around the last smoothed track and with its drift.
   PithRefineOptions ro = options.refine;
   ro.threads = threads;
-  std::vector<std::vector<double>> outlines = outlines_around(track);
-  std::vector<PithResult> refined = refine_pith_track(crops, z, track, g, options.pith, ro, &outlines);
-  std::vector<Vec2> t2 = smooth_pith_track(z, refined, options.track);
-  if (t2.empty()) {
-    refined.clear();  // nothing refined (no contour anywhere): keep the first track
-  } else if (options.chain_search_mm >= 0) {
+  ro.refine_spacing_mm = options.refine.refine_spacing_mm * options.first_refine_spacing_factor;
+  std::vector<PithResult> refined;
+  std::vector<bool> which(static_cast<size_t>(n), true);
+  const int half = static_cast<int>(options.refine.average_half_window_mm /
+                                    std::max(g.slice_spacing(), 1e-6));
+  for (int pass = 0; pass <= options.refine_iterations; ++pass) {
+    if (pass > 0) {
+      ro.search_radius_mm = options.iterate_search_mm;
+      ro.refine_spacing_mm = options.refine.refine_spacing_mm;
+    }
+    const std::vector<std::vector<double>> outlines = outlines_around(track);
+    std::vector<PithResult> r =
+        refine_pith_track(crops, z, track, g, options.pith, ro, &outlines, pass > 1 ? &which : nullptr);
+    if (pass > 1)  // slices not refined again keep their last answer
+      for (int i = 0; i < n; ++i)
+        if (!which[static_cast<size_t>(i)]) r[static_cast<size_t>(i)] = refined[static_cast<size_t>(i)];
+    std::vector<Vec2> t2 = smooth_pith_track(z, r, options.track);
+    if (t2.empty()) break;  // nothing refined (no contour anywhere): keep the track so far
+    // The next pass refines only where the track moved (and the slices averaged with those).
+    std::fill(which.begin(), which.end(), false);
+    bool moved = false;
+    for (int i = 0; i < n; ++i)
+      if ((t2[static_cast<size_t>(i)] - track[static_cast<size_t>(i)]).norm() > options.converged_mm) {
+        moved = true;
+        for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j)
+          which[static_cast<size_t>(j)] = true;
+      }
+    refined = std::move(r);
     track = std::move(t2);
-    outlines = outlines_around(track);
-    ro.search_radius_mm = options.chain_search_mm;
-    refined = chain_pith_track(crops, z, track, refined, g, options.pith, ro, &outlines);
-    t2 = smooth_pith_track(z, refined, options.track);
-    if (!t2.empty()) track = std::move(t2);
-  } else {
-    track = std::move(t2);
+    if (pass > 0 && !moved) break;
   }
   scan.seconds_refining =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_tracked).count();

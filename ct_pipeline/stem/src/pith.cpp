@@ -640,7 +640,11 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
         if (nbh[q] > nbh[arg]) arg = q;
       }
     if (arg == 4) break;
-    best = {best.x + (arg % 3 - 1) * h, best.y + (arg / 3 - 1) * h};
+    const Vec2 next{best.x + (arg % 3 - 1) * h, best.y + (arg / 3 - 1) * h};
+    // Stay in the searched disc: a climb along a noisy ridge would reach the alignment one ring
+    // off, outside the area the grid vouched for.
+    if (next.norm() > search_mm + kRingGridMm) break;
+    best = next;
     bs = nbh[arg];
   }
   auto vertex = [](double l, double c, double r) {

@@ -19,6 +19,13 @@ constexpr double kBoxBeyondSearchMm = 40.0;
 // a log end (or a gap in the log) and is not averaged in.
 constexpr double kMaxAreaChange = 0.25;
 
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
 std::int64_t count_wood(const Slice& s, double wood_hu) {
   std::int64_t n = 0;
   for (int y = 0; y < s.height; y += 4)
@@ -95,6 +102,7 @@ bool better(const PithResult& a, const PithResult& b) {
 PithTracker::PithTracker(const VolumeGeometry& geometry, const PithOptions& options,
                          const PithTrackerOptions& tracker)
     : geometry_(geometry), options_(options), tracker_(tracker) {
+  if (tracker.search_radius_mm > 0) options_.prior_radius_mm = tracker.search_radius_mm;
   const double dz = geometry.slice_spacing();
   if (tracker.average_half_window_mm > 0 && tracker.max_half_slices > 0) {
     const int k = dz > 0 ? static_cast<int>(tracker.average_half_window_mm / dz + 1e-9) : 1;
@@ -320,7 +328,8 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const VolumeGeometry& geometry,
                                           const PithOptions& options,
                                           const PithRefineOptions& refine,
-                                          const std::vector<std::vector<double>>* outlines) {
+                                          const std::vector<std::vector<double>>* outlines,
+                                          const std::vector<bool>* which) {
   assert(crops.size() == z.size() && z.size() == track.size());
   const int n = static_cast<int>(crops.size());
   std::vector<PithResult> out(crops.size());
@@ -330,7 +339,7 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
   std::atomic<int> next{0};
   auto work = [&] {
     for (int i = next++; i < n; i = next++)
-      if (i % every == 0 || i == n - 1)
+      if ((i % every == 0 || i == n - 1) && (!which || (*which)[static_cast<size_t>(i)]))
         out[static_cast<size_t>(i)] =
             refine_one(crops, z, track, geometry, options, refine, half, i, outlines,
                        track[static_cast<size_t>(i)]);
@@ -339,102 +348,6 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
-  return out;
-}
-
-namespace {
-
-// Where the chain expects the pith at `zk`: a line through its last points (up to kChainPoints
-// within kChainSpanMm of the newest), refitted once without points off it by more than
-// kChainRejectMm; with fewer than three points, the newest point moved as the track moves.
-constexpr int kChainPoints = 6;
-constexpr double kChainSpanMm = 40.0, kChainRejectMm = 0.5;
-
-Vec2 chain_predict(const std::vector<std::pair<double, Vec2>>& hist, double zk,
-                   const std::vector<double>& z, const std::vector<Vec2>& track, int last, int k) {
-  const Vec2 moved = hist.back().second + (track[static_cast<size_t>(k)] - track[static_cast<size_t>(last)]);
-  std::vector<std::pair<double, Vec2>> pts;
-  for (auto it = hist.rbegin(); it != hist.rend() && static_cast<int>(pts.size()) < kChainPoints; ++it)
-    if (std::abs(it->first - hist.back().first) <= kChainSpanMm) pts.push_back(*it);
-  if (pts.size() < 3) return moved;
-  std::vector<bool> use(pts.size(), true);
-  Vec2 a, b;  // p = a + b (z - zk)
-  for (int pass = 0; pass < 2; ++pass) {
-    double s0 = 0, s1 = 0, s2 = 0;
-    Vec2 t0, t1;
-    for (size_t q = 0; q < pts.size(); ++q) {
-      if (!use[q]) continue;
-      const double d = pts[q].first - zk;
-      s0 += 1, s1 += d, s2 += d * d;
-      t0 = t0 + pts[q].second, t1 = t1 + d * pts[q].second;
-    }
-    const double den = s0 * s2 - s1 * s1;
-    if (s0 < 2 || !(den > 1e-9)) return moved;
-    a = (1.0 / den) * (s2 * t0 - s1 * t1);
-    b = (1.0 / den) * (s0 * t1 - s1 * t0);
-    for (size_t q = 0; q < pts.size(); ++q)
-      use[q] = (pts[q].second - (a + (pts[q].first - zk) * b)).norm() <= kChainRejectMm;
-  }
-  (void)z;
-  return a;
-}
-
-}  // namespace
-
-std::vector<PithResult> chain_pith_track(const std::vector<SliceCrop>& crops,
-                                         const std::vector<double>& z,
-                                         const std::vector<Vec2>& track,
-                                         const std::vector<PithResult>& seeds,
-                                         const VolumeGeometry& geometry,
-                                         const PithOptions& options,
-                                         const PithRefineOptions& refine,
-                                         const std::vector<std::vector<double>>* outlines) {
-  assert(crops.size() == z.size() && z.size() == track.size() && seeds.size() == z.size());
-  const int n = static_cast<int>(crops.size());
-  std::vector<PithResult> out(crops.size());
-  const int half = refine_half_window(geometry, refine);
-  const int every = refine_every(geometry, refine);
-  std::vector<int> idx;
-  for (int i = 0; i < n; ++i)
-    if (i % every == 0 || i == n - 1) idx.push_back(i);
-  // Seed: the refined slice nearest the middle that agrees with the smoothed track.
-  int seed = -1;
-  for (size_t q = 0; q < idx.size(); ++q) {
-    const int i = idx[q];
-    const PithResult& r = seeds[static_cast<size_t>(i)];
-    if (!r.found || (r.pith_mm - track[static_cast<size_t>(i)]).norm() > refine.seed_agreement_mm)
-      continue;
-    if (seed < 0 || std::abs(i - n / 2) < std::abs(idx[static_cast<size_t>(seed)] - n / 2))
-      seed = static_cast<int>(q);
-  }
-  if (seed < 0) {  // nothing to anchor on: refine around the track
-    for (int i : idx)
-      out[static_cast<size_t>(i)] = refine_one(crops, z, track, geometry, options, refine, half, i,
-                                               outlines, track[static_cast<size_t>(i)]);
-    return out;
-  }
-  const int s0 = idx[static_cast<size_t>(seed)];
-  out[static_cast<size_t>(s0)] = seeds[static_cast<size_t>(s0)];
-  auto walk = [&](int dir) {
-    std::vector<std::pair<double, Vec2>> hist{{z[static_cast<size_t>(s0)], seeds[static_cast<size_t>(s0)].pith_mm}};
-    int last = s0;
-    for (int q = seed + dir; q >= 0 && q < static_cast<int>(idx.size()); q += dir) {
-      const int k = idx[static_cast<size_t>(q)];
-      const Vec2 start = chain_predict(hist, z[static_cast<size_t>(k)], z, track, last, k);
-      const PithResult r =
-          refine_one(crops, z, track, geometry, options, refine, half, k, outlines, start);
-      out[static_cast<size_t>(k)] = r;
-      if (r.found) hist.push_back({z[static_cast<size_t>(k)], r.pith_mm}), last = k;
-    }
-  };
-  if (refine.threads >= 2) {
-    std::thread up(walk, 1);
-    walk(-1);
-    up.join();
-  } else {
-    walk(1);
-    walk(-1);
-  }
   return out;
 }
 
@@ -453,12 +366,6 @@ std::vector<PithResult> track_pith(const std::vector<Slice>& slices,
 
 namespace {
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 // Weighted local linear fit of (z, x), (z, y) at z0; false if the weights are degenerate. `z`
 // is increasing, so only the slices within h of z0 are visited.
@@ -497,12 +404,21 @@ std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
   const size_t n = z.size();
   std::vector<Vec2> p(n);
   std::vector<double> prior_w(n, 0.0);
-  bool any = false;
+  std::vector<double> conf;
+  for (size_t i = 0; i < n; ++i)
+    if (raw[i].found) conf.push_back(raw[i].confidence);
+  if (conf.empty()) return {};
+  // Detections far less confident than the track's typical one are not trusted at all (a slice
+  // whose rings did not line up anywhere near the search start), unless too few remain.
+  const double floor = options.min_relative_confidence * median(conf);
+  size_t trusted = 0;
+  for (double c : conf) trusted += c >= floor;
+  const bool gate = trusted >= std::max<size_t>(3, conf.size() / 2);
   for (size_t i = 0; i < n; ++i) {
     p[i] = raw[i].pith_mm;
-    if (raw[i].found) prior_w[i] = std::max(0.05, raw[i].confidence), any = true;
+    if (raw[i].found && (!gate || raw[i].confidence >= floor))
+      prior_w[i] = std::max(0.05, raw[i].confidence);
   }
-  if (!any) return {};
   std::vector<double> robust(n, 1.0), w(n);
   std::vector<Vec2> fit(n);
   auto do_fit = [&](double h) {
@@ -552,7 +468,7 @@ std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
   }
   if (outlier) {
     outlier->assign(n, false);
-    for (size_t i = 0; i < n; ++i) (*outlier)[i] = prior_w[i] > 0 && robust[i] <= 0;
+    for (size_t i = 0; i < n; ++i) (*outlier)[i] = raw[i].found && (prior_w[i] <= 0 || robust[i] <= 0);
   }
   return fit;
 }

@@ -43,6 +43,9 @@ struct PithTrackerOptions {
   // The first track needs no more than a detection every this many mm along z (the smoothing
   // interpolates); the slices between are not searched (found = false, pith_mm = the prior).
   double detect_spacing_mm = 15.0;
+  // Search radius (mm) of each detection around the track's last confident pith (detections
+  // are at most detect_spacing_mm apart, and a pith leans well under 0.2 mm per mm).
+  double search_radius_mm = 8.0;
   // Each detection near the prior is then refined by the ring profile (circles) within this
   // radius (mm); 0: not.
   double ring_search_mm = 3.0;
@@ -123,36 +126,22 @@ struct PithRefineOptions {
   double search_radius_mm = 3.0;
   // Refine every k-th slice with k = this / spacing (at least 1), and the last slice.
   double refine_spacing_mm = 10.0;
-  // chain_pith_track: a seed must agree with the smoothed track within this (mm).
-  double seed_agreement_mm = 0.3;
   int threads = 1;
 };
 
 // Second pass over the crops of a first, smoothed track: each slice's pith is detected again on
 // the mean of its neighbours' crops, each shifted by the track's drift between the two slices
 // (so the rings near the pith stay sharp where the pith leans), searching near the track.
-// `crops`, `z` and `track` have one entry per slice; slices with an empty crop are not found.
+// `crops`, `z` and `track` have one entry per slice; slices with an empty crop are not found,
+// nor those `which` (when given) marks false.
 std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const std::vector<double>& z,
                                           const std::vector<Vec2>& track,
                                           const VolumeGeometry& geometry,
                                           const PithOptions& options,
                                           const PithRefineOptions& refine,
-                                          const std::vector<std::vector<double>>* outlines = nullptr);
-
-// Third pass, a chain: from the refined slice nearest the middle that agrees with the smoothed
-// track (`seeds` are the second pass's answers), outwards in both directions, each slice refined
-// within refine.search_radius_mm of where the chain's own recent answers (a robust line)
-// predict it. Carries the accuracy of the middle into the scan's ends, where the smoothed track
-// has neighbours on one side only. Without a seed it refines around `track`.
-std::vector<PithResult> chain_pith_track(const std::vector<SliceCrop>& crops,
-                                         const std::vector<double>& z,
-                                         const std::vector<Vec2>& track,
-                                         const std::vector<PithResult>& seeds,
-                                         const VolumeGeometry& geometry,
-                                         const PithOptions& options,
-                                         const PithRefineOptions& refine,
-                                         const std::vector<std::vector<double>>* outlines = nullptr);
+                                          const std::vector<std::vector<double>>* outlines = nullptr,
+                                          const std::vector<bool>* which = nullptr);
 
 struct PithTrackOptions {
   // Half-width (mm along z) of the local linear fit; the pith of a log bends slowly.
@@ -162,6 +151,9 @@ struct PithTrackOptions {
   double tukey_k = 4.685;
   double min_scale_mm = 0.3;
   int robust_iterations = 4;
+  // Detections less confident than this fraction of the median confidence get no weight (when
+  // at least half of them and three remain).
+  double min_relative_confidence = 0.7;
 };
 
 // Smoothed pith at every z in `z` (mm, increasing) from raw detections `raw` (same size):
