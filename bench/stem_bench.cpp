@@ -135,7 +135,9 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
 
 // The whole stem pass (tracking, refinement, contour, heartwood, assembly) on `n` slices of a
 // log's middle, pre-rendered in memory, with 1 and with 2 threads: ms per slice and the time an
-// 800-slice scan would take at that rate. Best of three runs each.
+// 800-slice scan would take at that rate. Best of kSpeedRuns runs each.
+constexpr int kSpeedRuns = 5;
+
 struct Speed {
   int slices = 0;
   double cpu_ms = 0;  // processor time of the pass, all threads, per slice
@@ -162,7 +164,7 @@ Speed time_stem_pass(const LogModel& log, int n, double spacing) {
   sp.slices = src.geometry().slice_count();
   for (int threads : {1, 2}) {
     double best = 1e30;
-    for (int rep = 0; rep < 3; ++rep) {
+    for (int rep = 0; rep < kSpeedRuns; ++rep) {
       StemScanOptions so;
       so.threads = threads;
       const double c0 = cpu_seconds();
@@ -238,7 +240,7 @@ int main(int argc, char** argv) {
   }
   if (speed_slices <= 0) return 0;
   std::printf("\nWhole stem pass on %d slices of each log's middle (in memory, reading excluded), "
-              "best of 3. CPU ms/slice: processor time of all threads (the work one core would "
+              "best of 5. CPU ms/slice: processor time of all threads (the work one core would "
               "do); wall ms/slice with 1 worker thread (the reading thread runs beside it) and "
               "with 2\n\n| log | slices | CPU ms/slice | wall ms/slice, 1 worker | "
               "wall ms/slice, 2 workers | 800 slices, 2 workers (s) |\n"

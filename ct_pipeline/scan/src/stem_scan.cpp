@@ -53,6 +53,27 @@ struct Job {
   Vec2 pith;
 };
 
+// Slices done with, kept for the next read: a slice is a megabyte, and allocating a fresh one
+// per read (mapping, faulting in and unmapping its pages) costs about as much as copying it.
+class SlicePool {
+ public:
+  void put(Slice&& s) {
+    std::lock_guard<std::mutex> lock(m_);
+    if (free_.size() < 8) free_.push_back(std::move(s));
+  }
+  Slice take() {
+    std::lock_guard<std::mutex> lock(m_);
+    if (free_.empty()) return Slice{};
+    Slice s = std::move(free_.back());
+    free_.pop_back();
+    return s;
+  }
+
+ private:
+  std::mutex m_;
+  std::vector<Slice> free_;
+};
+
 class JobQueue {
  public:
   explicit JobQueue(size_t capacity) : capacity_(capacity) {}
@@ -149,15 +170,18 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
   // Workers measure contour and heartwood; the reading thread tracks the pith (it needs the
   // previous slice's answer) and feeds them.
   JobQueue queue(static_cast<size_t>(2 * threads));
+  SlicePool pool;
   std::vector<std::thread> workers;
   for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&] {
       Job job;
       while (queue.pop(job)) {
         StemSliceRecord& rec = scan.slices[job.index];
-        if (!rec.measured) continue;
-        rec.contour = detect_contour(job.slice, g, job.pith, options.contour);
-        rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, options.heartwood);
+        if (rec.measured) {
+          rec.contour = detect_contour(job.slice, g, job.pith, options.contour);
+          rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, options.heartwood);
+        }
+        pool.put(std::move(job.slice));
       }
     });
   }
@@ -183,7 +207,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     }
   };
   for (int i = 0; i < n; ++i) {
-    Slice slice;
+    Slice slice = pool.take();
     status = source.read(i, slice);
     if (!status) break;
     dispatch(tracker.push(std::move(slice)));
@@ -219,40 +243,37 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     }
     return outlines;
   };
-  // A wide refinement on every other refined slice, then narrower ones on all of them, each
-  // around the last smoothed track and with its drift.
+  // Refinement passes, each around the last smoothed track and with its drift; after the first,
+  // only around the slices whose track moved.
   PithRefineOptions ro = options.refine;
   ro.threads = threads;
-  ro.refine_spacing_mm = options.refine.refine_spacing_mm * options.first_refine_spacing_factor;
   std::vector<PithResult> refined;
   std::vector<bool> which(static_cast<size_t>(n), true);
   const int half = static_cast<int>(options.refine.average_half_window_mm /
                                     std::max(g.slice_spacing(), 1e-6));
   for (int pass = 0; pass <= options.refine_iterations; ++pass) {
-    if (pass > 0) {
-      ro.search_radius_mm = options.iterate_search_mm;
-      ro.refine_spacing_mm = options.refine.refine_spacing_mm;
-    }
     const std::vector<std::vector<double>> outlines = outlines_around(track);
-    std::vector<PithResult> r =
-        refine_pith_track(crops, z, track, g, options.pith, ro, &outlines, pass > 1 ? &which : nullptr);
-    if (pass > 1)  // slices not refined again keep their last answer
+    std::vector<PithResult> r = refine_pith_track(crops, z, track, g, options.pith, ro, &outlines,
+                                                  pass > 0 ? &which : nullptr);
+    if (pass > 0)  // slices not refined again keep their last answer
       for (int i = 0; i < n; ++i)
         if (!which[static_cast<size_t>(i)]) r[static_cast<size_t>(i)] = refined[static_cast<size_t>(i)];
     std::vector<Vec2> t2 = smooth_pith_track(z, r, options.track);
     if (t2.empty()) break;  // nothing refined (no contour anywhere): keep the track so far
-    // The next pass refines only where the track moved (and the slices averaged with those).
+    // The next pass refines again where the track moved (and the slices averaged with those).
     std::fill(which.begin(), which.end(), false);
-    bool moved = false;
-    for (int i = 0; i < n; ++i)
-      if ((t2[static_cast<size_t>(i)] - track[static_cast<size_t>(i)]).norm() > options.converged_mm) {
-        moved = true;
+    bool again = false;
+    for (int i = 0; i < n; ++i) {
+      const bool moved =
+          (t2[static_cast<size_t>(i)] - track[static_cast<size_t>(i)]).norm() > options.converged_mm;
+      if (moved)
         for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j)
           which[static_cast<size_t>(j)] = true;
-      }
+      again = again || moved;
+    }
     refined = std::move(r);
     track = std::move(t2);
-    if (pass > 0 && !moved) break;
+    if (!again) break;
   }
   scan.seconds_refining =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_tracked).count();

@@ -273,7 +273,8 @@ int refine_every(const VolumeGeometry& g, const PithRefineOptions& refine) {
 PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<double>& z,
                       const std::vector<Vec2>& track, const VolumeGeometry& g,
                       const PithOptions& options, const PithRefineOptions& refine, int half,
-                      int i, const std::vector<std::vector<double>>* outlines, Vec2 start) {
+                      int i, const std::vector<std::vector<double>>* outlines, Vec2 start,
+                      double search_mm) {
   const SliceCrop& c = crops[static_cast<size_t>(i)];
   if (c.hu.empty()) return {};
   const int n = static_cast<int>(crops.size());
@@ -315,7 +316,7 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
   const Vec2 prior = start - origin;
   const std::vector<double>* outline =
       outlines && !(*outlines)[static_cast<size_t>(i)].empty() ? &(*outlines)[static_cast<size_t>(i)] : nullptr;
-  PithResult r = refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline);
+  PithResult r = refine_pith_concentric(avg, g, prior, search_mm, outline);
   if (r.found) r.pith_mm = r.pith_mm + origin;
   return r;
 }
@@ -329,7 +330,8 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const PithOptions& options,
                                           const PithRefineOptions& refine,
                                           const std::vector<std::vector<double>>* outlines,
-                                          const std::vector<bool>* which) {
+                                          const std::vector<bool>* which,
+                                          const std::vector<double>* search_mm) {
   assert(crops.size() == z.size() && z.size() == track.size());
   const int n = static_cast<int>(crops.size());
   std::vector<PithResult> out(crops.size());
@@ -342,7 +344,8 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
       if ((i % every == 0 || i == n - 1) && (!which || (*which)[static_cast<size_t>(i)]))
         out[static_cast<size_t>(i)] =
             refine_one(crops, z, track, geometry, options, refine, half, i, outlines,
-                       track[static_cast<size_t>(i)]);
+                       track[static_cast<size_t>(i)],
+                       search_mm ? (*search_mm)[static_cast<size_t>(i)] : refine.search_radius_mm);
   };
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);

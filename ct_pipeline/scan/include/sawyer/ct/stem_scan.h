@@ -30,21 +30,16 @@ struct StemScanOptions {
   HeartwoodOptions heartwood;
   int threads = 0;  // 0: hardware concurrency
   // The pith: tracked on slices averaged along z, smoothed (LOWESS), then refined on
-  // drift-compensated averages searching refine.search_radius_mm around the track, smoothed,
-  // and refined again within iterate_search_mm of each new track.
+  // drift-compensated averages searching refine.search_radius_mm around the track and smoothed,
+  // again around each new track until it settles.
   PithTrackerOptions tracker;
   // Smoothing of the first track (few, noisy detections: a wide window) and of the refined ones.
   PithTrackOptions first_track{.window_mm = 60.0};
   PithTrackOptions track;
   PithRefineOptions refine;
-  // After the wide refinement (refine.search_radius_mm, on slices first_refine_spacing_factor
-  // times farther apart than refine.refine_spacing_mm), this many narrower ones
-  // (iterate_search_mm), each around the track the previous one smoothed.
-  // The narrower passes after the first refine only around slices whose track moved by more than
-  // converged_mm in the previous pass, and stop when none did.
-  double first_refine_spacing_factor = 2.0;
+  // Refinement passes after the first: at most refine_iterations, each only around the slices
+  // whose track moved by more than converged_mm in the previous pass; none moved: done.
   int refine_iterations = 5;
-  double iterate_search_mm = 1.5;
   double converged_mm = 0.1;
 };
 

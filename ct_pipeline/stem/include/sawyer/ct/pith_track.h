@@ -48,7 +48,7 @@ struct PithTrackerOptions {
   double search_radius_mm = 8.0;
   // Each detection near the prior is then refined by the ring profile (circles) within this
   // radius (mm); 0: not.
-  double ring_search_mm = 3.0;
+  double ring_search_mm = 2.0;
 };
 
 // A full-resolution window of a slice around its pith, kept for the refinement pass; pixel
@@ -123,7 +123,7 @@ struct PithRefineOptions {
   double average_half_window_mm = 20.0;
   int max_half_slices = 20;
   // Search radius (mm) around the smoothed track.
-  double search_radius_mm = 3.0;
+  double search_radius_mm = 1.5;
   // Refine every k-th slice with k = this / spacing (at least 1), and the last slice.
   double refine_spacing_mm = 10.0;
   int threads = 1;
@@ -133,7 +133,8 @@ struct PithRefineOptions {
 // the mean of its neighbours' crops, each shifted by the track's drift between the two slices
 // (so the rings near the pith stay sharp where the pith leans), searching near the track.
 // `crops`, `z` and `track` have one entry per slice; slices with an empty crop are not found,
-// nor those `which` (when given) marks false.
+// nor those `which` (when given) marks false; `search_mm` (when given) overrides the search
+// radius per slice.
 std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const std::vector<double>& z,
                                           const std::vector<Vec2>& track,
@@ -141,7 +142,8 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const PithOptions& options,
                                           const PithRefineOptions& refine,
                                           const std::vector<std::vector<double>>* outlines = nullptr,
-                                          const std::vector<bool>* which = nullptr);
+                                          const std::vector<bool>* which = nullptr,
+                                          const std::vector<double>* search_mm = nullptr);
 
 struct PithTrackOptions {
   // Half-width (mm along z) of the local linear fit; the pith of a log bends slowly.
