@@ -176,9 +176,12 @@ Speed time_stem_pass(const LogModel& log, int n, double spacing) {
       best = std::min(best, scan.value().seconds);
       if (verbose)
         std::printf("  %d thread(s): %.3f s = tracking + contours %.3f s, refinement %.3f s; "
-                    "%d whole-slice searches\n",
+                    "CPU reading + first track %.3f s, contours %.3f s; %d whole-slice "
+                    "searches, %d refinements in %d passes\n",
                     threads, scan.value().seconds, scan.value().seconds_tracking,
-                    scan.value().seconds_refining, scan.value().pith_full_searches);
+                    scan.value().seconds_refining, scan.value().cpu_reading_tracking,
+                    scan.value().cpu_contours, scan.value().pith_full_searches,
+                    scan.value().pith_refinements, scan.value().pith_refine_passes);
     }
     (threads == 1 ? sp.ms_one : sp.ms_two) = 1000.0 * best / sp.slices;
   }

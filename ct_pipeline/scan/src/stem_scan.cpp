@@ -14,6 +14,12 @@ namespace sawyer::ct {
 
 namespace {
 
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 double median_of(std::vector<double> v) {
   if (v.empty()) return 0.0;
   const size_t m = v.size() / 2;
@@ -171,9 +177,12 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
   // previous slice's answer) and feeds them.
   JobQueue queue(static_cast<size_t>(2 * threads));
   SlicePool pool;
+  std::mutex cpu_mutex;
+  const double reader_c0 = thread_cpu_seconds();
   std::vector<std::thread> workers;
   for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&] {
+      const double c0 = thread_cpu_seconds();
       Job job;
       while (queue.pop(job)) {
         StemSliceRecord& rec = scan.slices[job.index];
@@ -183,6 +192,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
         }
         pool.put(std::move(job.slice));
       }
+      std::lock_guard<std::mutex> lock(cpu_mutex);
+      scan.cpu_contours += thread_cpu_seconds() - c0;
     });
   }
   // The reading thread tracks the pith (each slice's search starts from the previous answer)
@@ -213,6 +224,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     dispatch(tracker.push(std::move(slice)));
   }
   if (status) dispatch(tracker.finish());
+  scan.cpu_reading_tracking = thread_cpu_seconds() - reader_c0;
   scan.pith_full_searches = tracker.full_searches();
   queue.close();
   for (auto& w : workers) w.join();
@@ -251,13 +263,25 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
   std::vector<bool> which(static_cast<size_t>(n), true);
   const int half = static_cast<int>(options.refine.average_half_window_mm /
                                     std::max(g.slice_spacing(), 1e-6));
+  const std::vector<Vec2> first = track;
   for (int pass = 0; pass <= options.refine_iterations; ++pass) {
+    // The first pass searches wide (the first track lags where the pith turns), the others
+    // narrowly around the track they correct.
+    ro.search_radius_mm = pass == 0 ? options.first_search_mm : options.refine.search_radius_mm;
     const std::vector<std::vector<double>> outlines = outlines_around(track);
     std::vector<PithResult> r = refine_pith_track(crops, z, track, g, options.pith, ro, &outlines,
                                                   pass > 0 ? &which : nullptr);
+    for (const PithResult& q : r) scan.pith_refinements += q.found;
     if (pass > 0)  // slices not refined again keep their last answer
       for (int i = 0; i < n; ++i)
         if (!which[static_cast<size_t>(i)]) r[static_cast<size_t>(i)] = refined[static_cast<size_t>(i)];
+    // Refined piths farther than max_correction_mm from the first track are not believed (a
+    // refinement that walked off along the alignments one ring off, pass after pass).
+    for (int i = 0; i < n; ++i)
+      if (r[static_cast<size_t>(i)].found &&
+          (r[static_cast<size_t>(i)].pith_mm - first[static_cast<size_t>(i)]).norm() >
+              options.max_correction_mm)
+        r[static_cast<size_t>(i)].found = false;
     std::vector<Vec2> t2 = smooth_pith_track(z, r, options.track);
     if (t2.empty()) break;  // nothing refined (no contour anywhere): keep the track so far
     // The next pass refines again where the track moved (and the slices averaged with those).
@@ -273,6 +297,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     }
     refined = std::move(r);
     track = std::move(t2);
+    ++scan.pith_refine_passes;
     if (!again) break;
   }
   scan.seconds_refining =

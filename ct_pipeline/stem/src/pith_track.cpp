@@ -234,8 +234,13 @@ void PithTracker::decide(int centre) {
     r = detect_pith(box, geometry_, near, &local);
     if (r.found && tracker_.ring_search_mm > 0) {
       // The vote is coarse at this noise: line the rings up around it (circles; the contour
-      // is not known yet).
-      const PithResult q = refine_pith_concentric(box, geometry_, r.pith_mm, tracker_.ring_search_mm, nullptr);
+      // is not known yet). Where it strays from the prior (knots, blurred inner rings where the
+      // pith leans), the rings also get a chance around the prior; the better alignment wins.
+      PithResult q = refine_pith_concentric(box, geometry_, r.pith_mm, tracker_.ring_search_mm, nullptr);
+      if ((r.pith_mm - local).norm() > tracker_.ring_search_mm) {
+        const PithResult p = refine_pith_concentric(box, geometry_, local, tracker_.ring_search_mm, nullptr);
+        if (p.found && (!q.found || p.confidence > q.confidence)) q = p;
+      }
       if (q.found) r.pith_mm = q.pith_mm;
     }
     if (r.found) r.pith_mm = r.pith_mm + origin;
@@ -246,9 +251,19 @@ void PithTracker::decide(int centre) {
     const PithResult q = detect_pith(averaged(centre, nullptr, &origin), geometry_, options_, nullptr);
     if (better(q, r)) r = q;
   }
-  // A pith moves little from slice to slice: a jump is not trusted as the next prior.
+  // A pith moves little between detections: a jump is not trusted as the next prior, unless the
+  // next detection lands by it too (the pith turned, or the prior was the one astray).
+  const bool confident = r.found && r.confidence >= tracker_.min_confidence;
   const bool jump = last_ && r.found && (r.pith_mm - *last_).norm() > tracker_.max_step_mm;
-  if (r.found && r.confidence >= tracker_.min_confidence && !jump) last_ = r.pith_mm;
+  if (confident && jump && pending_ && (r.pith_mm - *pending_).norm() <= tracker_.max_step_mm) {
+    last_ = r.pith_mm;
+    pending_.reset();
+  } else if (confident && jump) {
+    pending_ = r.pith_mm;
+  } else if (confident) {
+    last_ = r.pith_mm;
+    pending_.reset();
+  }
   h.pith = r;
   h.has_centre = r.found || last_.has_value();
   h.centre = r.found ? r.pith_mm : (last_ ? *last_ : Vec2{});

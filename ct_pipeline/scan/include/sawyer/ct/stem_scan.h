@@ -40,7 +40,11 @@ struct StemScanOptions {
   // Refinement passes after the first: at most refine_iterations, each only around the slices
   // whose track moved by more than converged_mm in the previous pass; none moved: done.
   int refine_iterations = 5;
-  double converged_mm = 0.1;
+  // Search radius (mm) of the first refinement pass (refine.search_radius_mm: the others), and
+  // the largest correction of the first track believed.
+  double first_search_mm = 4.0;
+  double max_correction_mm = 6.0;
+  double converged_mm = 0.25;
 };
 
 struct StemSliceRecord {
@@ -61,8 +65,13 @@ struct StemScan {
   double seconds = 0;  // wall time of the whole pass, reading included
   // Of which: reading, first pith track, contour and heartwood (overlapped); pith refinement.
   double seconds_tracking = 0, seconds_refining = 0;
+  // Processor time (s): the reading thread (reading, first pith track), the workers (contour,
+  // heartwood). The refinement's is about its wall time times its threads.
+  double cpu_reading_tracking = 0, cpu_contours = 0;
   int threads = 1;
   int pith_full_searches = 0;  // slices searched whole by the first track (lost or first)
+  int pith_refinements = 0;    // ring-profile refinements, all passes
+  int pith_refine_passes = 0;
   double slices_per_second() const { return seconds > 0 ? slices.size() / seconds : 0; }
 };
 

@@ -111,6 +111,7 @@ class PithTracker {
   int next_ = 0;  // next index to decide
   std::deque<Held> held_;  // indices next_ - half_ .. pushed_ - 1 (those still needed)
   std::optional<Vec2> last_;
+  std::optional<Vec2> pending_;  // a confident detection that jumped from last_
 };
 
 // Convenience: tracks a whole stack held in memory (slices in z order).
