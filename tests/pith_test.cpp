@@ -167,6 +167,19 @@ TEST(Pith, Spruce77DoubledNoiseBedTouchingMissingSlices) {
   EXPECT_LE(m.smoothed.p95, 6.0);
 }
 
+// Where the real spruce's pith turns sharply (x swings 7 mm within 80 mm at z 2290-2370), at
+// twice the noise, with 14 cm of scan before the turn: the first track lags the turn, and the
+// refinement must still find it.
+TEST(Pith, Gran1PithTurnDoubledNoise) {
+  PhantomOptions o = base_options();
+  o.noise_hu = 40;
+  const Section s = render("gran1_spruce", 2150, 2450, o);
+  ASSERT_EQ(s.slices.size(), 61u);
+  const Measured m = measure(s, "gran1_spruce pith turn, noise 40");
+  EXPECT_LE(m.smoothed.median, 2.0);
+  EXPECT_LE(m.smoothed.p95, 6.0);
+}
+
 // Homothetic rings (the log model's own stem time, DESIGN.md 5) around an off-centre pith in an
 // oval, off-centre section: with the outline the ring-profile refinement lands on the pith;
 // fitting circles instead is pulled towards the section's centre.

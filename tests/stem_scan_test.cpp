@@ -76,5 +76,38 @@ TEST(RecentreContour, KeepsAGapInvalid) {
   EXPECT_LE(invalid, 35);
 }
 
+// A scan with no log in it is refused, naming the scan.
+class AirSource final : public SliceSource {
+ public:
+  AirSource() {
+    g_.width = g_.height = 128;
+    g_.spacing_x = g_.spacing_y = 0.8;
+    for (int i = 0; i < 12; ++i) g_.z.push_back(5.0 * i);
+  }
+  Format format() const override { return Format::kDicom; }
+  const VolumeGeometry& geometry() const override { return g_; }
+  std::string description() const override { return "air-only scan"; }
+  const std::vector<std::string>& notes() const override { return notes_; }
+  Status read(int i, Slice& out) override {
+    out.index = i;
+    out.z = g_.z[static_cast<size_t>(i)];
+    out.width = out.height = 128;
+    out.hu.assign(128 * 128, -1000.f);
+    return Status::Ok();
+  }
+
+ private:
+  VolumeGeometry g_;
+  std::vector<std::string> notes_;
+};
+
+TEST(ScanStem, NoLogIsRefusedNamingTheScan) {
+  AirSource src;
+  auto r = scan_stem(src, {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message().find("air-only scan"), std::string::npos) << r.error().message();
+  EXPECT_NE(r.error().message().find("no log"), std::string::npos) << r.error().message();
+}
+
 }  // namespace
 }  // namespace sawyer::ct
