@@ -14,3 +14,7 @@ build/apps/sawyer/sawyer phantom sample_logs/gran1_spruce/log.json -o out/demo_c
   --from-mm 1000 --to-mm 1500 --seed 1
 echo
 build/apps/sawyer/sawyer info out/demo_ct
+echo
+# Stem analysis of that scan: pith, outer shape and heartwood, with QA images.
+rm -rf out/demo_scan
+build/apps/sawyer/sawyer scan out/demo_ct -o out/demo_scan
