@@ -6,9 +6,12 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <ctime>
 #include <deque>
 #include <mutex>
 #include <thread>
+
+#include "sawyer/core/stats.h"
 
 namespace sawyer::ct {
 
@@ -18,13 +21,6 @@ double thread_cpu_seconds() {
   timespec t{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + m, v.end());
-  return v[m];
 }
 
 // Fills invalid entries of a circular row by linear interpolation between the nearest valid
@@ -352,7 +348,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     std::vector<double> bark;
     for (size_t k = 0; k < rec.contour.bark_mm.size(); ++k)
       if (rec.contour.bark_mm[k] > 0) bark.push_back(rec.contour.bark_mm[k]);
-    st.bark_mm.push_back(median_of(bark));
+    st.bark_mm.push_back(median(bark));
   }
   if (std::all_of(st.bark_mm.begin(), st.bark_mm.end(), [](double b) { return b <= 0; }))
     st.bark_mm.clear();

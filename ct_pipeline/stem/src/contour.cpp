@@ -27,6 +27,7 @@
 #include <cmath>
 #include <vector>
 
+#include "sawyer/core/stats.h"
 #include "sawyer/ct/stem_detect.h"
 
 namespace sawyer::ct {
@@ -90,13 +91,6 @@ class Sampler {
   double isx_, isy_;
 };
 
-double median_of(std::vector<float>& v) {
-  if (v.empty()) return 0.0;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + m, v.end());
-  return v[m];
-}
-
 bool slice_ok(const Slice& s, const VolumeGeometry& g) {
   return s.width >= 2 && s.height >= 2 && s.hu.size() == static_cast<size_t>(s.width) * s.height &&
          g.spacing_x > 0 && g.spacing_y > 0;
@@ -128,7 +122,7 @@ void clean_angles(std::vector<double>& r, std::vector<bool>& valid, int half, do
       keep[k] = false;
       continue;
     }
-    if (std::abs(r[k] - median_of(win)) > tol) keep[k] = false;
+    if (std::abs(r[k] - median_inplace(win)) > tol) keep[k] = false;
   }
   valid = keep;
   // Fill gaps between kept angles.
@@ -200,7 +194,7 @@ bool robust_fourier(const std::vector<double>& r, const std::vector<bool>& valid
   for (int k = 0; k < n; ++k)
     if (valid[k]) vals.push_back(static_cast<float>(r[k]));
   std::vector<double> coef(m, 0.0);
-  coef[0] = median_of(vals);
+  coef[0] = median_inplace(vals);
   std::vector<double> A(static_cast<size_t>(m) * m), rhs(m);
   for (int o = 1; o <= order; ++o) {
     const int mm = 2 * o + 1;
@@ -324,7 +318,7 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
           peak = std::max(peak, prof[q]);
         }
         if (inside.empty()) continue;
-        const double med = median_of(inside);
+        const double med = median_inplace(inside);
         if (med < kWoodMinHu || med > kWoodMaxHu || peak > kWoodPeakHu) continue;
         edge = j;
         in_level = med;
@@ -439,7 +433,7 @@ HeartwoodResult detect_heartwood(const Slice& slice, const VolumeGeometry& geome
       heart.push_back(img.at(pith_mm.x + q * c, pith_mm.y + q * s));
   }
   if (rays < kMinFoundFraction * n || sap.empty() || heart.empty()) return out;
-  const double sap_level = median_of(sap), heart_level = median_of(heart);
+  const double sap_level = median_inplace(sap), heart_level = median_inplace(heart);
   if (sap_level - heart_level < options.min_contrast_hu) return out;
   out.present = true;
   const double level = 0.5 * (sap_level + heart_level);
@@ -476,7 +470,7 @@ HeartwoodResult detect_heartwood(const Slice& slice, const VolumeGeometry& geome
       if (!(pm < level && prev >= level)) continue;
       win.clear();
       for (int q = m; q <= std::min(J, m + persist); ++q) win.push_back(p(q));
-      if (median_of(win) >= level) continue;  // a thin dark ring, not the dry core
+      if (median_inplace(win) >= level) continue;  // a thin dark ring, not the dry core
       r[k] = h * ((J - m) + (level - pm) / std::max(1e-6f, prev - pm));
       valid[k] = true;
       break;

@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "sawyer/core/stats.h"
 #include "sawyer/ct/stem_detect.h"
 
 namespace sawyer::ct {
@@ -548,9 +549,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     }
   if (px.size() < 100) return res;
   // Knots, the heartwood border and cracks are far from the wood level: leave them out.
-  auto mid = vals.begin() + static_cast<std::ptrdiff_t>(vals.size() / 2);
-  std::nth_element(vals.begin(), mid, vals.end());
-  const float level = *mid;
+  const float level = static_cast<float>(median_inplace(vals));
   px.erase(std::remove_if(px.begin(), px.end(),
                           [&](const Px& p) { return std::abs(p.v - level) > kRingOutlierHu; }),
            px.end());

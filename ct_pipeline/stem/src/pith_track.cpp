@@ -2,11 +2,13 @@
 #include "sawyer/ct/pith_track.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <cmath>
-#include <atomic>
 #include <cstdlib>
 #include <thread>
+
+#include "sawyer/core/stats.h"
 
 namespace sawyer::ct {
 
@@ -19,12 +21,6 @@ constexpr double kBoxBeyondSearchMm = 40.0;
 // a log end (or a gap in the log) and is not averaged in.
 constexpr double kMaxAreaChange = 0.25;
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 std::int64_t count_wood(const Slice& s, double wood_hu) {
   std::int64_t n = 0;
@@ -77,10 +73,7 @@ float wood_level(const float* img, int w, int h, double cx, double cy, double rx
       const float q = img[static_cast<size_t>(y) * w + x];
       if (q > -700.f && q < static_cast<float>(kMaxWoodHu)) v.push_back(q);
     }
-  if (v.empty()) return NAN;
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
+  return v.empty() ? NAN : static_cast<float>(median_inplace(v));
 }
 
 // Adds the in-level pixels of src[xa, xb) to sum and count.
@@ -366,19 +359,6 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
-  return out;
-}
-
-std::vector<PithResult> track_pith(const std::vector<Slice>& slices,
-                                   const VolumeGeometry& geometry, const PithOptions& options,
-                                   const PithTrackerOptions& tracker) {
-  std::vector<PithResult> out(slices.size());
-  PithTracker t(geometry, options, tracker);
-  auto take = [&](std::vector<TrackedSlice> done) {
-    for (const TrackedSlice& d : done) out[static_cast<size_t>(d.index)] = d.pith;
-  };
-  for (const Slice& s : slices) take(t.push(s));
-  take(t.finish());
   return out;
 }
 

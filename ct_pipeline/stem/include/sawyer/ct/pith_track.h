@@ -1,11 +1,13 @@
 // Pith along z (issue 4): slice-to-slice tracking with detect_pith on a short stack of slices
-// averaged along z, and an outlier-robust smoothing of the raw track.
+// averaged along z, an outlier-robust smoothing of a track, and the ring-profile refinement of
+// a track on drift-compensated averages (stem_scan.cpp strings them together).
 //
 //   PithTracker tracker(geometry, {}, {});
 //   for (Slice& s : slices_in_z_order)
-//     for (TrackedSlice& t : tracker.push(std::move(s))) use(t.slice, t.pith);
-//   for (TrackedSlice& t : tracker.finish()) use(t.slice, t.pith);
-//   std::vector<Vec2> pith = smooth_pith_track(geometry.z, raw, {}, &outliers);
+//     for (TrackedSlice& t : tracker.push(std::move(s))) keep(t);   // slice, pith, crop
+//   for (TrackedSlice& t : tracker.finish()) keep(t);
+//   std::vector<Vec2> track = smooth_pith_track(z, raw, {});
+//   std::vector<PithResult> fine = refine_pith_track(crops, z, track, geometry, {}, {}, &outlines);
 //
 // Why average: at the noise of industrial and medical log CT (about 20 HU) the annual rings'
 // few-percent density modulation is barely above the noise in one slice, and single-slice pith
@@ -81,7 +83,6 @@ class PithTracker {
               const PithTrackerOptions& tracker);
   std::vector<TrackedSlice> push(Slice slice);
   std::vector<TrackedSlice> finish();
-  int half_window() const { return half_; }
   // Searches of a whole slice so far (the first slice, and wherever the track was lost).
   int full_searches() const { return full_searches_; }
 
@@ -113,11 +114,6 @@ class PithTracker {
   std::optional<Vec2> last_;
   std::optional<Vec2> pending_;  // a confident detection that jumped from last_
 };
-
-// Convenience: tracks a whole stack held in memory (slices in z order).
-std::vector<PithResult> track_pith(const std::vector<Slice>& slices,
-                                   const VolumeGeometry& geometry, const PithOptions& options,
-                                   const PithTrackerOptions& tracker);
 
 struct PithRefineOptions {
   // Neighbours within this distance (mm along z) are shifted by the track's drift and averaged.
