@@ -101,29 +101,22 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
       row.worst_slice = static_cast<int>(j);
     }
     // Radii are compared on the truth's own pith, so a pith error does not count twice: the
-    // measured contour point at azimuth w is re-expressed around the true pith.
-    std::vector<double> rad = rec.contour.radius;
-    std::vector<bool> ok = rec.contour.valid;
-    recentre_contour(rec.pith, want, rad, ok);
-    for (size_t k = 0; k < rad.size(); ++k) {
-      if (!ok[k]) continue;
-      const double w = kTwoPi * k / rad.size();
-      const double d = rad[k] - truth.stem.radius_at(w, z);
-      r2 += d * d;
-      ++rn;
-    }
-    if (rec.heartwood.present && !truth.stem.heartwood.empty()) {
-      std::vector<double> hr = rec.heartwood.radius;
-      std::vector<bool> hok = rec.heartwood.valid;
-      recentre_contour(rec.pith, want, hr, hok);
-      for (size_t k = 0; k < hr.size(); ++k) {
-        if (!hok[k]) continue;
-        const double w = kTwoPi * k / hr.size();
-        const double d = hr[k] - truth.stem.heartwood_at(w, z);
-        h2 += d * d;
-        ++hn;
+    // measured point at azimuth w is re-expressed around the true pith.
+    auto add_squares = [&](std::vector<double> rad, std::vector<bool> ok, auto truth_at,
+                           double& sum2, long& count) {
+      recentre_contour(rec.pith, want, rad, ok);
+      for (size_t k = 0; k < rad.size(); ++k) {
+        if (!ok[k]) continue;
+        const double d = rad[k] - truth_at(kTwoPi * k / rad.size());
+        sum2 += d * d;
+        ++count;
       }
-    }
+    };
+    add_squares(rec.contour.radius, rec.contour.valid,
+                [&](double w) { return truth.stem.radius_at(w, z); }, r2, rn);
+    if (rec.heartwood.present && !truth.stem.heartwood.empty())
+      add_squares(rec.heartwood.radius, rec.heartwood.valid,
+                  [&](double w) { return truth.stem.heartwood_at(w, z); }, h2, hn);
   }
   row.pith_median = percentile(err, 0.5);
   row.pith_p95 = percentile(err, 0.95);

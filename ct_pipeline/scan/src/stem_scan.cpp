@@ -238,7 +238,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
   std::vector<double> z(g.z.begin(), g.z.begin() + n);
   // The first track, then refinement passes on drift-compensated averages with the rings
   // assumed homothetic to the outer contour (pith_track.h), each smoothed again.
-  std::vector<Vec2> track = smooth_pith_track(z, raw, options.first_track);
+  std::vector<bool> outlier;  // of the piths the final track was smoothed from
+  std::vector<Vec2> track = smooth_pith_track(z, raw, options.first_track, &outlier);
   auto outlines_around = [&](const std::vector<Vec2>& centre) {
     std::vector<std::vector<double>> outlines(static_cast<size_t>(n));
     for (int i = 0; i < n; ++i) {
@@ -257,8 +258,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
   ro.threads = threads;
   std::vector<PithResult> refined;
   std::vector<bool> which(static_cast<size_t>(n), true);
-  const int half = static_cast<int>(options.refine.average_half_window_mm /
-                                    std::max(g.slice_spacing(), 1e-6));
+  const int half =
+      slices_within(g, options.refine.average_half_window_mm, options.refine.max_half_slices);
   const std::vector<Vec2> first = track;
   for (int pass = 0; pass <= options.refine_iterations; ++pass) {
     // The first pass searches wide (the first track lags where the pith turns), the others
@@ -278,7 +279,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
           (r[static_cast<size_t>(i)].pith_mm - first[static_cast<size_t>(i)]).norm() >
               options.max_correction_mm)
         r[static_cast<size_t>(i)].found = false;
-    std::vector<Vec2> t2 = smooth_pith_track(z, r, options.track);
+    std::vector<bool> rejected;
+    std::vector<Vec2> t2 = smooth_pith_track(z, r, options.track, &rejected);
     if (t2.empty()) break;  // nothing refined (no contour anywhere): keep the track so far
     // The next pass refines again where the track moved (and the slices averaged with those).
     std::fill(which.begin(), which.end(), false);
@@ -293,13 +295,12 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     }
     refined = std::move(r);
     track = std::move(t2);
+    outlier = std::move(rejected);
     ++scan.pith_refine_passes;
     if (!again) break;
   }
   scan.seconds_refining =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_tracked).count();
-  std::vector<bool> outlier;
-  smooth_pith_track(z, refined.empty() ? raw : refined, options.track, &outlier);
   for (int i = 0; i < n; ++i) {
     StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
     rec.pith = track[static_cast<size_t>(i)];

@@ -12,6 +12,19 @@
 
 namespace sawyer::ct {
 
+int slices_within(const VolumeGeometry& geometry, double half_window_mm, int max_slices) {
+  if (!(half_window_mm > 0) || max_slices <= 0) return 0;
+  const double dz = geometry.slice_spacing();
+  const int k = dz > 0 ? static_cast<int>(half_window_mm / dz + 1e-9) : 1;
+  return std::clamp(k, 1, max_slices);
+}
+
+int slice_step(const VolumeGeometry& geometry, double spacing_mm) {
+  const double dz = geometry.slice_spacing();
+  if (!(dz > 0) || !(spacing_mm > dz)) return 1;
+  return std::max(1, static_cast<int>(spacing_mm / dz + 1e-9));
+}
+
 namespace {
 
 // Half-width (mm) of the averaged box around a prior: the prior search radius, the voters 20 mm
@@ -96,13 +109,8 @@ PithTracker::PithTracker(const VolumeGeometry& geometry, const PithOptions& opti
                          const PithTrackerOptions& tracker)
     : geometry_(geometry), options_(options), tracker_(tracker) {
   if (tracker.search_radius_mm > 0) options_.prior_radius_mm = tracker.search_radius_mm;
-  const double dz = geometry.slice_spacing();
-  if (tracker.average_half_window_mm > 0 && tracker.max_half_slices > 0) {
-    const int k = dz > 0 ? static_cast<int>(tracker.average_half_window_mm / dz + 1e-9) : 1;
-    half_ = std::clamp(k, 1, tracker.max_half_slices);
-  }
-  if (dz > 0 && tracker.detect_spacing_mm > dz)
-    every_ = std::max(1, static_cast<int>(tracker.detect_spacing_mm / dz + 1e-9));
+  half_ = slices_within(geometry, tracker.average_half_window_mm, tracker.max_half_slices);
+  every_ = slice_step(geometry, tracker.detect_spacing_mm);
 }
 
 std::vector<TrackedSlice> PithTracker::push(Slice slice) {
@@ -265,24 +273,11 @@ void PithTracker::decide(int centre) {
 
 namespace {
 
-int refine_half_window(const VolumeGeometry& g, const PithRefineOptions& refine) {
-  const double dz = g.slice_spacing();
-  if (!(refine.average_half_window_mm > 0) || refine.max_half_slices <= 0) return 0;
-  const int k = dz > 0 ? static_cast<int>(refine.average_half_window_mm / dz + 1e-9) : 1;
-  return std::clamp(k, 1, refine.max_half_slices);
-}
-
-int refine_every(const VolumeGeometry& g, const PithRefineOptions& refine) {
-  const double dz = g.slice_spacing();
-  if (!(dz > 0) || !(refine.refine_spacing_mm > dz)) return 1;
-  return std::max(1, static_cast<int>(refine.refine_spacing_mm / dz + 1e-9));
-}
 
 PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<double>& z,
                       const std::vector<Vec2>& track, const VolumeGeometry& g,
                       const PithOptions& options, const PithRefineOptions& refine, int half,
-                      int i, const std::vector<std::vector<double>>* outlines, Vec2 start,
-                      double search_mm) {
+                      int i, const std::vector<std::vector<double>>* outlines, Vec2 start) {
   const SliceCrop& c = crops[static_cast<size_t>(i)];
   if (c.hu.empty()) return {};
   const int n = static_cast<int>(crops.size());
@@ -324,7 +319,7 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
   const Vec2 prior = start - origin;
   const std::vector<double>* outline =
       outlines && !(*outlines)[static_cast<size_t>(i)].empty() ? &(*outlines)[static_cast<size_t>(i)] : nullptr;
-  PithResult r = refine_pith_concentric(avg, g, prior, search_mm, outline);
+  PithResult r = refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline);
   if (r.found) r.pith_mm = r.pith_mm + origin;
   return r;
 }
@@ -338,13 +333,12 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const PithOptions& options,
                                           const PithRefineOptions& refine,
                                           const std::vector<std::vector<double>>* outlines,
-                                          const std::vector<bool>* which,
-                                          const std::vector<double>* search_mm) {
+                                          const std::vector<bool>* which) {
   assert(crops.size() == z.size() && z.size() == track.size());
   const int n = static_cast<int>(crops.size());
   std::vector<PithResult> out(crops.size());
-  const int half = refine_half_window(geometry, refine);
-  const int every = refine_every(geometry, refine);
+  const int half = slices_within(geometry, refine.average_half_window_mm, refine.max_half_slices);
+  const int every = slice_step(geometry, refine.refine_spacing_mm);
   const int threads = std::clamp(refine.threads, 1, 64);
   std::atomic<int> next{0};
   auto work = [&] {
@@ -352,8 +346,7 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
       if ((i % every == 0 || i == n - 1) && (!which || (*which)[static_cast<size_t>(i)]))
         out[static_cast<size_t>(i)] =
             refine_one(crops, z, track, geometry, options, refine, half, i, outlines,
-                       track[static_cast<size_t>(i)],
-                       search_mm ? (*search_mm)[static_cast<size_t>(i)] : refine.search_radius_mm);
+                       track[static_cast<size_t>(i)]);
   };
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);

@@ -31,6 +31,12 @@
 
 namespace sawyer::ct {
 
+// Slices on each side within half_window_mm along z (at least 1 when the window is positive, at
+// most max_slices; 0 for no window), and the step k that takes every k-th slice no closer than
+// spacing_mm (at least 1), for the geometry's slice spacing.
+int slices_within(const VolumeGeometry& geometry, double half_window_mm, int max_slices);
+int slice_step(const VolumeGeometry& geometry, double spacing_mm);
+
 struct PithTrackerOptions {
   // Slices within this distance (mm along z) of a slice are averaged with it before its pith is
   // detected; 0: single slices. At least one neighbour each side is used when the spacing is
@@ -130,8 +136,7 @@ struct PithRefineOptions {
 // the mean of its neighbours' crops, each shifted by the track's drift between the two slices
 // (so the rings near the pith stay sharp where the pith leans), searching near the track.
 // `crops`, `z` and `track` have one entry per slice; slices with an empty crop are not found,
-// nor those `which` (when given) marks false; `search_mm` (when given) overrides the search
-// radius per slice.
+// nor those `which` (when given) marks false.
 std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const std::vector<double>& z,
                                           const std::vector<Vec2>& track,
@@ -139,8 +144,7 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
                                           const PithOptions& options,
                                           const PithRefineOptions& refine,
                                           const std::vector<std::vector<double>>* outlines = nullptr,
-                                          const std::vector<bool>* which = nullptr,
-                                          const std::vector<double>* search_mm = nullptr);
+                                          const std::vector<bool>* which = nullptr);
 
 struct PithTrackOptions {
   // Half-width (mm along z) of the local linear fit; the pith of a log bends slowly.
@@ -159,7 +163,8 @@ struct PithTrackOptions {
 // LOWESS-style local linear fits (tricube kernel over window_mm, weights raw confidence) with
 // biweight reweighting of the residuals, so isolated wrong slices (a knot whorl, a crack) are
 // ignored. Slices with found = false get no weight and are interpolated. `outlier`, when given,
-// marks the found slices the robust fit rejected (zero final weight). Returns an empty vector
+// marks the found slices given no weight in the end (rejected by the robust fit, or far less
+// confident than the typical one). Returns an empty vector
 // when no slice was found; sizes must agree (asserts).
 std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
                                     const std::vector<PithResult>& raw,
