@@ -230,7 +230,8 @@ TEST(Pith, KnotWhorlSlice) {
   for (const Knot& k : truth.knots)
     if (k.z0 <= g.z[1] + 2.5 && k.height_at(std::min(60.0, k.r_end)) >= g.z[1] - 2.5) ++knots_here;
   EXPECT_GE(knots_here, 3);
-  // Regression bounds of the current detector (the issue asks for far better; see the report).
+  // One slice on its own (no averaging along z): the detector stays within a few mm of the pith
+  // even here; the stem pass (tests above) is what meets the issue's accuracy.
   const PithResult a = detect_pith(slice, g, {}, nullptr);
   ASSERT_TRUE(a.found);
   EXPECT_LE((a.pith_mm - want).norm(), 5.0);
