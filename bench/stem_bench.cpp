@@ -1,7 +1,7 @@
 // stem_bench: accuracy and speed of the stem pass (issue 4) on phantoms with ground truth.
 //
 //   stem_bench [--slices N] [--spacing MM] [--random K] [--speed-slices M] [--only LOG_ID]
-//              [--verbose 1]
+//              [--condition clean|hard] [--seed S] [--at F] [--verbose 1]
 //
 // For each log (the three bundled ones and K freshly generated ones) and each condition
 // ("clean": 512 x 512, 0.8 mm, the default 20 HU noise and bed; "hard": twice the noise, the
@@ -52,10 +52,10 @@ struct Row {
 };
 
 Result<Row> run(const LogModel& log, const std::string& condition, int n, double spacing,
-                std::uint64_t seed) {
+                std::uint64_t seed, double at) {
   PhantomOptions o;
   o.slice_spacing_mm = spacing;
-  const double mid = log.stem.z_begin() + 0.5 * log.stem.length_mm();
+  const double mid = log.stem.z_begin() + at * log.stem.length_mm();
   o.from_mm = mid - 0.5 * spacing * (n - 1);
   o.to_mm = mid + 0.5 * spacing * (n - 1);
   o.seed = seed;
@@ -188,6 +188,9 @@ int main(int argc, char** argv) {
   double spacing = 5.0;
   std::string only;
   int speed_slices = 160;
+  std::uint64_t seed = 7;
+  double at = 0.5;
+  std::string only_condition;
   for (int a = 1; a + 1 < argc; a += 2) {
     if (!std::strcmp(argv[a], "--slices")) n = std::atoi(argv[a + 1]);
     else if (!std::strcmp(argv[a], "--spacing")) spacing = std::atof(argv[a + 1]);
@@ -195,6 +198,9 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--verbose")) verbose = std::atoi(argv[a + 1]) != 0;
     else if (!std::strcmp(argv[a], "--only")) only = argv[a + 1];
     else if (!std::strcmp(argv[a], "--speed-slices")) speed_slices = std::atoi(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--seed")) seed = std::strtoull(argv[a + 1], nullptr, 10);
+    else if (!std::strcmp(argv[a], "--at")) at = std::atof(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--condition")) only_condition = argv[a + 1];
   }
   std::vector<LogModel> logs;
   for (const char* name : {"gran1_spruce", "pine_8", "spruce_77"}) {
@@ -219,7 +225,8 @@ int main(int argc, char** argv) {
   for (const LogModel& log : logs) {
     if (!only.empty() && log.id != only) continue;
     for (const char* cond : {"clean", "hard"}) {
-      auto row = run(log, cond, n, spacing, 7);
+      if (!only_condition.empty() && only_condition != cond) continue;
+      auto row = run(log, cond, n, spacing, seed, at);
       if (!row) {
         std::printf("| %s | %s | error: %s |\n", log.id.c_str(), cond,
                     row.error().message().c_str());

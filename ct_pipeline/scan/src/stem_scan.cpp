@@ -23,31 +23,6 @@ double thread_cpu_seconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-// Fills invalid entries of a circular row by linear interpolation between the nearest valid
-// entries on either side. Returns false when no entry is valid.
-bool fill_circular(std::vector<double>& row, const std::vector<bool>& valid) {
-  const int n = static_cast<int>(row.size());
-  int first = -1;
-  for (int k = 0; k < n; ++k)
-    if (valid[k]) {
-      first = k;
-      break;
-    }
-  if (first < 0) return false;
-  int prev = first;
-  for (int step = 1; step <= n; ++step) {
-    const int k = (first + step) % n;
-    if (!valid[k]) continue;
-    const int gap = (k - prev + n) % n;
-    for (int j = 1; j < gap; ++j) {
-      const double t = static_cast<double>(j) / gap;
-      row[(prev + j) % n] = (1 - t) * row[prev] + t * row[k];
-    }
-    prev = k;
-  }
-  return true;
-}
-
 // A bounded queue of slices for the contour workers.
 struct Job {
   int index;

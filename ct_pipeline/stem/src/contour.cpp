@@ -183,11 +183,17 @@ bool robust_fourier(const std::vector<double>& r, const std::vector<bool>& valid
   std::vector<double> basis(static_cast<size_t>(n) * m);
   for (int k = 0; k < n; ++k) {
     const double w = kTwoPi * k / n;
+    const double c1 = std::cos(w), s1 = std::sin(w);
     double* b = &basis[static_cast<size_t>(k) * m];
     b[0] = 1;
+    // cos(o w), sin(o w) by the angle-addition recurrence (order is small: no drift to speak of).
+    double co = 1, so = 0;
     for (int o = 1; o <= order; ++o) {
-      b[2 * o - 1] = std::cos(o * w);
-      b[2 * o] = std::sin(o * w);
+      const double cn = co * c1 - so * s1;
+      so = so * c1 + co * s1;
+      co = cn;
+      b[2 * o - 1] = co;
+      b[2 * o] = so;
     }
   }
   std::vector<float> vals;
@@ -496,6 +502,29 @@ HeartwoodResult detect_heartwood(const Slice& slice, const VolumeGeometry& geome
     out.radius[k] = out.valid[k] ? r[k] : 0.0;
   }
   return out;
+}
+
+bool fill_circular(std::vector<double>& row, const std::vector<bool>& valid) {
+  const int n = static_cast<int>(row.size());
+  int first = -1;
+  for (int k = 0; k < n; ++k)
+    if (valid[k]) {
+      first = k;
+      break;
+    }
+  if (first < 0) return false;
+  int prev = first;
+  for (int step = 1; step <= n; ++step) {
+    const int k = (first + step) % n;
+    if (!valid[k]) continue;
+    const int gap = (k - prev + n) % n;
+    for (int j = 1; j < gap; ++j) {
+      const double t = static_cast<double>(j) / gap;
+      row[(prev + j) % n] = (1 - t) * row[prev] + t * row[k];
+    }
+    prev = k;
+  }
+  return true;
 }
 
 }  // namespace sawyer::ct

@@ -9,7 +9,11 @@
 //    accumulator (4-pixel cells over +- 0.6 R of the section's centroid; 2-pixel cells over
 //    +- prior_radius_mm near a prior), weighted by its anisotropy; pixels above a few times the
 //    median anisotropy (knots, cracks, the heartwood border, the outline) do not vote at all:
-//    annual rings are faint. The smoothed accumulator's peak is the coarse pith.
+//    annual rings are faint. The smoothed accumulator's peak is the coarse pith. Without a
+//    prior, the five strongest peaks and the section's centroid are candidates, each voted on
+//    again nearby; the one around which the rings line up best out to half the radius
+//    (refine_pith_concentric, homothetic to the outline measured around it) wins, the
+//    strongest peak unless clearly beaten.
 // 3. Refine (full resolution, a 12 mm disc): least-squares intersection of the ring-normal lines
 //    (I - n n^T)(c - p) = 0, weights 1/r, Tukey weights on the angle between each normal and
 //    the direction to c (knot flanks, whose normals are tangential, drop out), iterated until it
@@ -46,6 +50,14 @@ constexpr double kRingBinMm = 0.4;
 constexpr double kRingSmoothMm = 1.6;
 constexpr float kRingOutlierHu = 120.f;
 constexpr double kRingGridMm = 0.5;
+// Whole-slice search: vote peaks tried (the strongest included), at least this far apart (mm),
+// each lined up with the rings within kAcquireRingSearchMm.
+constexpr int kAcquireCandidates = 5;
+constexpr double kAcquireApartMm = 8.0;
+constexpr double kAcquireRingSearchMm = 6.0;
+constexpr double kAcquireRingMaxMm = 60.0;
+// Ring-profile signal share (0..1) by which another candidate must beat the strongest peak.
+constexpr double kAcquireMargin = 0.1;
 constexpr double kTukeyAngle = 0.9;    // rad (about 52 degrees)
 constexpr double kMinRadiusMm = 15.0;  // smaller wood blobs are not a log
 // Structure-tensor anisotropy above this many medians is an edge, not an annual ring.
@@ -273,10 +285,12 @@ Extent find_extent(const Slice& s, const VolumeGeometry& g, double wood_hu) {
 // orientation (annual rings are 3-4 pixels wide: coarser images alias them into moire);
 // `votes(x, y)` (full-resolution pixels) says who votes, every `stride` pixels. The accumulator
 // has cells of `cell` pixels and covers the mm box [lo, hi]. Returns the peak (mm) and its
-// sharpness (1 - mean / peak).
+// sharpness (1 - mean / peak); `others`, when given, gets up to `n_others` further local peaks
+// (cell centres, mm), strongest first, each at least `apart_mm` from the stronger ones.
 template <typename VotePred>
 Vec2 vote(const Slice& s, const VolumeGeometry& g, int x0, int y0, int w, int h, Vec2 lo, Vec2 hi,
-          int cell, int stride, int tensor_radius, VotePred votes, double* sharpness) {
+          int cell, int stride, int tensor_radius, VotePred votes, double* sharpness,
+          std::vector<Vec2>* others = nullptr, int n_others = 0, double apart_mm = 0) {
   const Grid img = block_mean(s, 1, x0, y0, w, h);
   const double sx = g.spacing_x, sy = g.spacing_y;
   const Orientation o = orientation_field(img, tensor_radius, sx, sy);
@@ -341,7 +355,24 @@ Vec2 vote(const Slice& s, const VolumeGeometry& g, int x0, int y0, int w, int h,
   for (float v : acc.v) mean += v;
   mean /= static_cast<double>(acc.v.size());
   *sharpness = acc.v[bi] > 0 ? 1.0 - mean / acc.v[bi] : 0.0;
-  return {lo.x + fx * cx_mm, lo.y + fy * cy_mm};
+  const Vec2 peak{lo.x + fx * cx_mm, lo.y + fy * cy_mm};
+  if (others) {
+    // Greedy: the strongest cell not within apart_mm of a peak already taken.
+    std::vector<Vec2> taken{peak};
+    std::vector<int> order(acc.v.size());
+    for (size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return acc.v[a] > acc.v[b]; });
+    for (int k : order) {
+      if (static_cast<int>(others->size()) >= n_others || !(acc.v[k] > 0.f)) break;
+      const Vec2 c{lo.x + (k % aw) * cx_mm, lo.y + (k / aw) * cy_mm};
+      bool near = false;
+      for (const Vec2& t : taken) near = near || (c - t).norm() < apart_mm;
+      if (near) continue;
+      taken.push_back(c);
+      others->push_back(c);
+    }
+  }
+  return peak;
 }
 
 // Full-resolution refinement around `c` (mm). Returns the refined pith; *inlier is the weighted
@@ -467,10 +498,11 @@ PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const Pith
   return r;
 }
 
-PithResult detect_without_prior(const Slice& s, const VolumeGeometry& g, const PithOptions& opt) {
-  PithResult r;
+std::vector<PithCandidate> candidates_without_prior(const Slice& s, const VolumeGeometry& g,
+                                                   const PithOptions& opt) {
+  std::vector<PithCandidate> out;
   const Extent e = find_extent(s, g, opt.wood_hu);
-  if (!e.found) return r;
+  if (!e.found) return out;
   // The pith lies well inside the section: search +- 0.6 R around the centroid, with votes from
   // the inner 0.8 R (inner rings are rounder), every third pixel, into 4-pixel cells.
   const double R = e.radius_mm;
@@ -488,29 +520,64 @@ PithResult detect_without_prior(const Slice& s, const VolumeGeometry& g, const P
   };
   const int stride = R > 60 ? 3 : 2;
   double sharp = 0;
+  std::vector<Vec2> others;
   const Vec2 coarse =
       vote(s, g, x0, y0, x1 - x0, y1 - y0, c - Vec2{0.6 * R, 0.6 * R}, c + Vec2{0.6 * R, 0.6 * R},
-           4, stride, kCoarseTensorRadius, votes, &sharp);
-  // Then a finer vote near the coarse peak and the least-squares refinement.
+           4, stride, kCoarseTensorRadius, votes, &sharp, &others, kAcquireCandidates - 1,
+           kAcquireApartMm);
+  std::vector<Vec2> seeds{coarse};
+  seeds.insert(seeds.end(), others.begin(), others.end());
+  seeds.push_back(c);
   PithOptions o2 = opt;
   o2.prior_radius_mm = 8.0;
-  PithResult q = detect_with_prior(s, g, o2, coarse);
-  if (!q.found) {
-    double inlier = 0;
-    q.pith_mm = refine(s, g, coarse, &inlier);
-    q.confidence = confidence_from(inlier, sharp);
-    q.found = true;
+  for (size_t k = 0; k < seeds.size(); ++k) {
+    PithResult q = detect_with_prior(s, g, o2, seeds[k]);
+    if (!q.found) {
+      if (k > 0) continue;
+      double inlier = 0;
+      q.pith_mm = refine(s, g, seeds[k], &inlier);
+      q.confidence = confidence_from(inlier, sharp);
+      q.found = true;
+    }
+    bool seen = false;
+    for (const PithCandidate& t : out) seen = seen || (t.vote - q.pith_mm).norm() < 1.0;
+    if (seen) continue;
+    const PithResult local = refine_pith_concentric(s, g, q.pith_mm, kAcquireRingSearchMm, nullptr);
+    PithCandidate cand;
+    cand.vote = q.pith_mm;
+    cand.vote_confidence = q.confidence;
+    cand.rings = local.found ? local.pith_mm : q.pith_mm;
+    cand.score = wide_ring_score(s, g, cand.rings);
+    out.push_back(cand);
   }
-  return q;
+  return out;
+}
+
+PithResult detect_without_prior(const Slice& s, const VolumeGeometry& g, const PithOptions& opt) {
+  // At high noise, and where knots or the scanner bed pull the votes, the strongest peak is not
+  // always the pith: it stands unless another candidate lines the rings up clearly better. The
+  // answer is the vote's (the caller refines it).
+  const std::vector<PithCandidate> cands = candidates_without_prior(s, g, opt);
+  PithResult r;
+  if (cands.empty()) return r;
+  size_t best = 0;
+  for (size_t k = 1; k < cands.size(); ++k)
+    if (cands[k].score > std::max(cands[best].score, cands[0].score + kAcquireMargin)) best = k;
+  r.found = true;
+  r.pith_mm = cands[best].vote;
+  r.confidence = cands[best].vote_confidence;
+  return r;
 }
 
 }  // namespace
 
 PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 start,
-                                  double search_mm, const std::vector<double>* outline) {
+                                  double search_mm, const std::vector<double>* outline,
+                                  double ring_max_mm) {
   PithResult res;
   const double sx = g.spacing_x, sy = g.spacing_y;
-  const double reach = kRingMaxMm + search_mm + 1.0;
+  const double ring_max = std::max(ring_max_mm, 4 * kRingMinMm);
+  const double reach = ring_max + search_mm + 1.0;
   const int x0 = std::max(0, static_cast<int>((start.x - reach) / sx));
   const int y0 = std::max(0, static_cast<int>((start.y - reach) / sy));
   const int x1 = std::min(s.width - 1, static_cast<int>((start.x + reach) / sx) + 1);
@@ -560,13 +627,22 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     fx[i] = px[i].x, fy[i] = px[i].y, fv[i] = px[i].v - level;
     fux[i] = px[i].ux, fuy[i] = px[i].uy, fk[i] = px[i].k, fir[i] = px[i].inv_r;
   }
-  constexpr int nb = static_cast<int>((kRingMaxMm - kRingMinMm) / kRingBinMm) + 1;
+  const int nb_all = static_cast<int>((ring_max - kRingMinMm) / kRingBinMm) + 1;
   constexpr int lh = static_cast<int>(kRingSmoothMm / kRingBinMm);
   // Four interleaved histograms: consecutive pixels fall in the same bin, and one histogram
   // would make every add wait for the previous one. Bin 0 takes the pixels inside the first
-  // ring radius, bin nb + 1 those beyond the last; 1..nb are the profile.
+  // ring radius, bin nb_all + 1 those beyond the last; 1..nb_all are the profile.
+  // Each pixel adds its value and a count in one integer add: the value in 1/kQuantum HU
+  // above bit kCountBits, the count below (exact; a bin holds far fewer than 2^24 pixels).
   constexpr int kLanes = 4;
-  std::array<std::array<float, nb + 2>, kLanes> sum{}, cnt{};
+  constexpr double kQuantum = 64.0;
+  constexpr std::int64_t kCountOne = std::int64_t{1} << 24;
+  std::array<std::vector<std::int64_t>, kLanes> hist;
+  for (int l = 0; l < kLanes; ++l) hist[l].resize(nb_all + 2);
+  std::vector<std::int64_t> packed(npx);
+  for (size_t i = 0; i < npx; ++i)
+    packed[i] = static_cast<std::int64_t>(std::lround(fv[i] * kQuantum)) * kCountOne + 1;
+  std::vector<double> m(nb_all), nbin(nb_all), sq(nb_all + 2);
   std::vector<std::int32_t> bins(npx);
   const float inv_bin = static_cast<float>(1.0 / kRingBinMm);
   const float rmin = static_cast<float>(kRingMinMm);
@@ -575,40 +651,44 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   // mean over about a ring width (knots and the density trend are smooth in radius, rings are
   // not), squared and summed. `noise` gets the profile's expected noise energy.
   auto score = [&](Vec2 delta, double* noise) {
+    const size_t n_use = npx;
+    const int nb_use = nb_all;
     const float ddx = static_cast<float>(delta.x), ddy = static_cast<float>(delta.y);
-    const float top = static_cast<float>(nb + 1);
+    const float top = static_cast<float>(nb_use + 1);
     const float lo = rmin - kRingBinMmF;  // bin 1 starts at rmin
-    for (size_t i = 0; i < npx; ++i) {
+    for (size_t i = 0; i < n_use; ++i) {
       const float ex = fx[i] - ddx, ey = fy[i] - ddy;
       // d * Rm / (R - delta . u) ~ d * k * (1 + delta . u / R)
       const float r =
           std::sqrt(ex * ex + ey * ey) * fk[i] * (1.f + (ddx * fux[i] + ddy * fuy[i]) * fir[i]);
       bins[i] = static_cast<std::int32_t>(std::min(std::max((r - lo) * inv_bin, 0.f), top));
     }
-    for (int l = 0; l < kLanes; ++l) sum[l].fill(0.f), cnt[l].fill(0.f);
+    for (int l = 0; l < kLanes; ++l) std::fill(hist[l].begin(), hist[l].end(), 0);
     size_t i = 0;
-    for (; i + kLanes <= npx; i += kLanes)
-      for (int l = 0; l < kLanes; ++l) sum[l][bins[i + l]] += fv[i + l], cnt[l][bins[i + l]] += 1.f;
-    for (; i < npx; ++i) sum[0][bins[i]] += fv[i], cnt[0][bins[i]] += 1.f;
-    std::array<double, nb> m{}, c{};
-    for (int b = 0; b < nb; ++b) {
-      for (int l = 0; l < kLanes; ++l) m[b] += sum[l][b + 1], c[b] += cnt[l][b + 1];
-      m[b] = c[b] > 0 ? m[b] / c[b] : 0.0;
+    for (; i + kLanes <= n_use; i += kLanes)
+      for (int l = 0; l < kLanes; ++l) hist[l][bins[i + l]] += packed[i + l];
+    for (; i < n_use; ++i) hist[0][bins[i]] += packed[i];
+    for (int b = 0; b < nb_use; ++b) {
+      std::int64_t t = 0;
+      for (int l = 0; l < kLanes; ++l) t += hist[l][b + 1];
+      const std::int64_t n = t & (kCountOne - 1);
+      nbin[b] = static_cast<double>(n);
+      m[b] = n > 0 ? static_cast<double>((t - n) / kCountOne) / (kQuantum * nbin[b]) : 0.0;
     }
     double sc = 0;
-    for (int b = 0; b < nb; ++b) {
+    for (int b = 0; b < nb_use; ++b) {
       double a = 0;
       int n = 0;
-      for (int j = std::max(0, b - lh); j <= std::min(nb - 1, b + lh); ++j) a += m[j], ++n;
+      for (int j = std::max(0, b - lh); j <= std::min(nb_use - 1, b + lh); ++j) a += m[j], ++n;
       const double d = m[b] - a / n;
       sc += d * d;
     }
     if (noise) {
-      std::array<double, nb + 2> sq{};
-      for (size_t q = 0; q < npx; ++q) sq[bins[q]] += static_cast<double>(fv[q]) * fv[q];
+      std::fill(sq.begin(), sq.end(), 0.0);
+      for (size_t q = 0; q < n_use; ++q) sq[bins[q]] += static_cast<double>(fv[q]) * fv[q];
       double nz = 0;
-      for (int b = 0; b < nb; ++b)
-        if (c[b] > 1) nz += (sq[b + 1] / c[b] - m[b] * m[b]) / c[b];
+      for (int b = 0; b < nb_use; ++b)
+        if (nbin[b] > 1) nz += (sq[b + 1] / nbin[b] - m[b] * m[b]) / nbin[b];
       *noise = nz;
     }
     return sc;
@@ -658,6 +738,26 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   // Signal share of the profile energy: near 0 for noise, near 1 for clear rings.
   res.confidence = bs > 0 ? std::clamp((bs - noise) / bs, 0.0, 1.0) : 0.0;
   return res;
+}
+
+std::vector<PithCandidate> pith_candidates(const Slice& slice, const VolumeGeometry& geometry,
+                                           const PithOptions& options) {
+  if (slice.width <= 0 || slice.height <= 0 ||
+      slice.hu.size() != static_cast<size_t>(slice.width) * slice.height)
+    return {};
+  return candidates_without_prior(slice, geometry, options);
+}
+
+double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 centre) {
+  const ContourResult outline = detect_contour(slice, geometry, centre, {});
+  std::vector<double> radius = outline.radius;
+  if (!fill_circular(radius, outline.valid)) return 0.0;
+  double mean = 0;
+  for (double r : radius) mean += r;
+  mean /= static_cast<double>(radius.size());
+  const double wide = std::clamp(0.5 * mean, kRingMaxMm, kAcquireRingMaxMm);
+  const PithResult rings = refine_pith_concentric(slice, geometry, centre, 0.0, &radius, wide);
+  return rings.found ? rings.confidence : 0.0;
 }
 
 PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,

@@ -30,6 +30,10 @@ namespace {
 // Half-width (mm) of the averaged box around a prior: the prior search radius, the voters 20 mm
 // beyond it and the refinement disc (pith.cpp), with a margin.
 constexpr double kBoxBeyondSearchMm = 40.0;
+// The first pith of a scan: candidates followed through this many searched slices, each time
+// within kAcquireFollowMm (mm) of where the last one put them.
+constexpr int kAcquireSearches = 4;
+constexpr double kAcquireFollowMm = 2.0;
 // A neighbour whose wood area differs from the centre slice's by more than this fraction is past
 // a log end (or a gap in the log) and is not averaged in.
 constexpr double kMaxAreaChange = 0.25;
@@ -121,7 +125,10 @@ std::vector<TrackedSlice> PithTracker::push(Slice slice) {
   h.wood_cells = wood;
   held_.push_back(std::move(h));
   std::vector<TrackedSlice> out;
-  while (next_ + half_ < pushed_) decide(next_++);
+  // Before the first pith is found, a slice waits until the windows of the next few searched
+  // slices are in (acquire()).
+  while (next_ + (last_ ? half_ : (kAcquireSearches - 1) * every_ + half_) < pushed_)
+    decide(next_++);
   release(out, false);
   return out;
 }
@@ -212,6 +219,40 @@ Slice PithTracker::averaged(int centre, const Vec2* box_centre, Vec2* origin) co
   return out;
 }
 
+PithResult PithTracker::acquire(int centre) {
+  // The candidates of the first searched slice, each followed through the next few searched
+  // slices (the rings lined up within kAcquireFollowMm of where it was), scored on each by how
+  // well the rings line up out to half the radius: a pith persists along z where a knot's rings,
+  // the pull of the section's shape or a noise pattern do not line up slice after slice.
+  Vec2 origin;
+  const std::vector<PithCandidate> cands =
+      pith_candidates(averaged(centre, nullptr, &origin), geometry_, options_);
+  PithResult r;
+  if (cands.empty()) return r;
+  std::vector<Vec2> at;
+  std::vector<double> total;
+  for (const PithCandidate& c : cands) at.push_back(c.rings), total.push_back(c.score);
+  int used = 1;
+  for (int k = 1; k < kAcquireSearches; ++k) {
+    const int d = centre + k * every_;
+    if (d >= pushed_ || cands.size() == 1) break;
+    const Slice whole = averaged(d, nullptr, &origin);
+    for (size_t c = 0; c < cands.size(); ++c) {
+      const PithResult q = refine_pith_concentric(whole, geometry_, at[c], kAcquireFollowMm, nullptr);
+      if (q.found) at[c] = q.pith_mm;
+      total[c] += wide_ring_score(whole, geometry_, at[c]);
+    }
+    ++used;
+  }
+  size_t best = 0;
+  for (size_t c = 1; c < cands.size(); ++c)
+    if (total[c] > total[best]) best = c;
+  r.found = true;
+  r.pith_mm = cands[best].rings;
+  r.confidence = total[best] / used;
+  return r;
+}
+
 void PithTracker::decide(int centre) {
   const int front = held_.front().index;
   Held& h = held_[static_cast<size_t>(centre - front)];
@@ -246,7 +287,10 @@ void PithTracker::decide(int centre) {
     }
     if (r.found) r.pith_mm = r.pith_mm + origin;
   }
-  if (!prior || !r.found || r.confidence < tracker_.min_confidence) {
+  if (!prior) {
+    ++full_searches_;
+    r = acquire(centre);
+  } else if (!r.found || r.confidence < tracker_.min_confidence) {
     // No prior, or lost near it: search the whole (averaged) slice and keep the better answer.
     ++full_searches_;
     const PithResult q = detect_pith(averaged(centre, nullptr, &origin), geometry_, options_, nullptr);

@@ -81,8 +81,11 @@ struct TrackedSlice {
 };
 
 // Feeds slices in z order; each is searched near the last confident pith on the average of its
-// neighbours, falling back to a search of the whole slice when the prior is lost. Results come
-// out in order, a few slices behind the input (the averaging window's half-width).
+// neighbours, falling back to a search of the whole slice when the prior is lost. The first pith
+// is chosen among the whole slice's candidates (pith_candidates) by how well the rings line up
+// around each on this and the next three searched slices. Results come out in order, a few
+// slices behind the input (the averaging window's half-width; before the first pith, the
+// windows of the next searched slices too).
 class PithTracker {
  public:
   PithTracker(const VolumeGeometry& geometry, const PithOptions& options,
@@ -103,6 +106,8 @@ class PithTracker {
     Vec2 centre;
   };
   void decide(int centre);
+  // The first pith: the whole slice's candidates, judged on this and the next searched slices.
+  PithResult acquire(int centre);
   void release(std::vector<TrackedSlice>& out, bool all);
   // The mean of the slices around `centre`: over the whole slice without a box centre, else over
   // a box around it returned as its own image, slice pixel `origin` (mm) at its (0, 0).

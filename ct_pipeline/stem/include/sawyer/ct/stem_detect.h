@@ -44,8 +44,29 @@ struct PithResult {
 PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,
                        const PithOptions& options, const Vec2* prior_mm);
 
+// Where the pith of a slice with no prior may be: the strongest peaks of the whole-slice vote
+// (at least 8 mm apart) and the section's centroid, each voted on again nearby (`vote`), then
+// moved to where the rings (circles) line up best within 6 mm (`rings`, the centre `score` is
+// measured around: wide_ring_score). The strongest vote peak comes first. Empty when the slice
+// holds no log.
+struct PithCandidate {
+  Vec2 vote;
+  Vec2 rings;
+  double vote_confidence = 0;
+  double score = 0;
+};
+std::vector<PithCandidate> pith_candidates(const Slice& slice, const VolumeGeometry& geometry,
+                                           const PithOptions& options);
+
+// How well the annual rings of `slice` line up around `centre` out to half the log's radius
+// (24 to 60 mm), taken as homothetic to the outer contour measured around `centre` (the outer
+// rings follow the log's shape; circles that far out lean towards the centre of an eccentric
+// section): the signal share of the ring profile (refine_pith_concentric), 0..1. A knot has
+// rings of its own, but only out to its own radius. 0 without a contour.
+double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 centre);
+
 // Ring-profile refinement: the centre within search_mm of `start` around which the slice's
-// annual rings line up best. For each candidate centre the wood within 24 mm is binned by ring
+// annual rings line up best. For each candidate centre the wood within ring_max_mm is binned by ring
 // radius and the energy of the binned profile's ring-scale detail is scored (a matched filter
 // for concentric rings: every pixel of a ring adds coherently, where per-pixel gradient
 // directions drown in noise); pixels far from the wood level (knots, the heartwood step,
@@ -55,7 +76,8 @@ PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,
 // eccentric section by a fraction of a millimetre. Best on a slice averaged along z
 // (pith_track.h). confidence: signal share of the profile energy (0..1).
 PithResult refine_pith_concentric(const Slice& slice, const VolumeGeometry& geometry, Vec2 start,
-                                  double search_mm, const std::vector<double>* outline);
+                                  double search_mm, const std::vector<double>* outline,
+                                  double ring_max_mm = 24.0);
 
 struct ContourOptions {
   int n_angles = 360;
@@ -74,6 +96,11 @@ struct ContourResult {
   // Bark thickness where measurable (mm), else 0.
   std::vector<double> bark_mm;
 };
+
+// Fills the entries of a circular row (radius per azimuth) that `valid` does not mark by linear
+// interpolation between the nearest marked entries on either side. Returns false when no entry
+// is marked.
+bool fill_circular(std::vector<double>& row, const std::vector<bool>& valid);
 
 ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
                              const Vec2& pith_mm, const ContourOptions& options);
