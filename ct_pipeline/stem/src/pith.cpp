@@ -50,6 +50,11 @@ constexpr double kRingBinMm = 0.4;
 constexpr double kRingSmoothMm = 1.6;
 constexpr float kRingOutlierHu = 120.f;
 constexpr double kRingGridMm = 0.5;
+// Searches at least kScreenMinSearchMm wide screen their grid on the rings within
+// kScreenRingMm of each grid point and score the kScreenKeep best points on all rings.
+constexpr double kScreenMinSearchMm = 2.5;
+constexpr double kScreenRingMm = 16.0;
+constexpr size_t kScreenKeep = 30;
 // Whole-slice search: vote peaks tried (the strongest included), at least this far apart (mm),
 // each lined up with the rings within kAcquireRingSearchMm.
 constexpr int kAcquireCandidates = 5;
@@ -620,6 +625,12 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   px.erase(std::remove_if(px.begin(), px.end(),
                           [&](const Px& p) { return std::abs(p.v - level) > kRingOutlierHu; }),
            px.end());
+  // The pixels near the start first: a wide search screens its grid on them alone.
+  const float screen_reach = static_cast<float>(kScreenRingMm + search_mm);
+  const size_t n_near = static_cast<size_t>(
+      std::partition(px.begin(), px.end(),
+                     [&](const Px& p) { return std::sqrt(p.x * p.x + p.y * p.y) * p.k <= screen_reach; }) -
+      px.begin());
   // Structure of arrays, so the per-candidate radius loop vectorises.
   const size_t npx = px.size();
   std::vector<float> fx(npx), fy(npx), fv(npx), fux(npx), fuy(npx), fk(npx), fir(npx);
@@ -650,9 +661,10 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   // Ring-profile energy around start + delta: the mean HU per ring-radius bin, minus its running
   // mean over about a ring width (knots and the density trend are smooth in radius, rings are
   // not), squared and summed. `noise` gets the profile's expected noise energy.
-  auto score = [&](Vec2 delta, double* noise) {
-    const size_t n_use = npx;
-    const int nb_use = nb_all;
+  // `use` pixels (a prefix) and `nbu` profile bins: the screening score of a wide search.
+  auto score = [&](Vec2 delta, double* noise, size_t use = 0, int nbu = 0) {
+    const size_t n_use = use ? use : npx;
+    const int nb_use = nbu ? nbu : nb_all;
     const float ddx = static_cast<float>(delta.x), ddy = static_cast<float>(delta.y);
     const float top = static_cast<float>(nb_use + 1);
     const float lo = rmin - kRingBinMmF;  // bin 1 starts at rmin
@@ -694,16 +706,34 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     return sc;
   };
   // A grid over the search disc, then hill climbing at finer steps.
+  // A wide search screens the grid on the rings within kScreenRingMm of each grid point and
+  // scores only the kScreenKeep best points on all rings.
   Vec2 best{0, 0};
   double bs = -1;
   const int ns = static_cast<int>(search_mm / kRingGridMm);
+  const bool screen = search_mm >= kScreenMinSearchMm && ring_max > kScreenRingMm + 4.0;
+  const int nb_screen = static_cast<int>((kScreenRingMm - kRingMinMm) / kRingBinMm) + 1;
+  std::vector<std::pair<double, Vec2>> screened;
   for (int j = -ns; j <= ns; ++j)
     for (int i = -ns; i <= ns; ++i) {
       if (i * i + j * j > ns * ns) continue;
       const Vec2 c{i * kRingGridMm, j * kRingGridMm};
+      if (screen) {
+        screened.push_back({score(c, nullptr, std::max<size_t>(n_near, 1), nb_screen), c});
+        continue;
+      }
       const double v = score(c, nullptr);
       if (v > bs) bs = v, best = c;
     }
+  if (screen) {
+    const size_t keep = std::min<size_t>(kScreenKeep, screened.size());
+    std::partial_sort(screened.begin(), screened.begin() + static_cast<std::ptrdiff_t>(keep),
+                      screened.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (size_t q = 0; q < keep; ++q) {
+      const double v = score(screened[q].second, nullptr);
+      if (v > bs) bs = v, best = screened[q].second;
+    }
+  }
   // Hill climbing on a 0.25 mm lattice until the best point is the centre of its 3 x 3
   // neighbourhood, then a parabola through that neighbourhood in x and in y.
   constexpr double h = 0.25;
