@@ -186,6 +186,35 @@ TEST(Pith, Gran1MidLogStartDoubledNoiseBedTouching) {
   EXPECT_LE(m.smoothed.p95, 6.0);
 }
 
+// A log with no visible rings (ring modulation 0: a wet, uniform core): there is nothing to
+// line up, yet the pass completes with one search of the whole slice (not one per slice) and
+// keeps the pith inside the log. Where in the log is a guess (docs/scan.md, Limits).
+TEST(Pith, RinglessLogIsSearchedOnce) {
+  PhantomOptions o = base_options();
+  o.ring_amplitude = 0;
+  const Section s = render("spruce_77", 1000, 1100, o);
+  ASSERT_EQ(s.slices.size(), 21u);
+  auto src = make_uniform_z(std::make_unique<PhantomSource>(*s.phantom, true), {});
+  ASSERT_TRUE(src.ok());
+  StemScanOptions so;
+  so.threads = 2;
+  auto scan = scan_stem(*src.value(), so);
+  ASSERT_TRUE(scan.ok()) << scan.error().message();
+  EXPECT_LE(scan.value().pith_full_searches, 2);
+  const LogModel truth = s.phantom->truth_log();
+  double worst = 0;
+  for (const StemSliceRecord& rec : scan.value().slices) {
+    ASSERT_TRUE(rec.measured);
+    const Vec2 d = rec.pith - truth.stem.pith_at(rec.z);
+    const double w = std::atan2(d.y, d.x);
+    // Inside the log: nearer the true pith than the bark is in that direction.
+    EXPECT_LT(d.norm(), truth.stem.radius_at(w < 0 ? w + kTwoPi : w, rec.z)) << "z " << rec.z;
+    worst = std::max(worst, d.norm());
+  }
+  std::printf("[pith] ringless log: %d whole-slice searches, worst pith error %.1f mm\n",
+              scan.value().pith_full_searches, worst);
+}
+
 // Where the real spruce's pith turns sharply (x swings 7 mm within 80 mm at z 2290-2370), at
 // twice the noise, with 14 cm of scan before the turn: the first track lags the turn, and the
 // refinement must still find it.

@@ -287,9 +287,11 @@ void PithTracker::decide(int centre) {
     }
     if (r.found) r.pith_mm = r.pith_mm + origin;
   }
+  bool acquired = false;
   if (!prior) {
     ++full_searches_;
     r = acquire(centre);
+    acquired = r.found;
   } else if (!r.found || r.confidence < tracker_.min_confidence) {
     // No prior, or lost near it: search the whole (averaged) slice and keep the better answer.
     ++full_searches_;
@@ -298,7 +300,9 @@ void PithTracker::decide(int centre) {
   }
   // A pith moves little between detections: a jump is not trusted as the next prior, unless the
   // next detection lands by it too (the pith turned, or the prior was the one astray).
-  const bool confident = r.found && r.confidence >= tracker_.min_confidence;
+  // A first pith found on four slices is the prior even where the rings are faint (a wet or
+  // ringless core): searching four slices again on every slice would cost tens of ms each.
+  const bool confident = r.found && (acquired || r.confidence >= tracker_.min_confidence);
   const bool jump = last_ && r.found && (r.pith_mm - *last_).norm() > tracker_.max_step_mm;
   if (confident && jump && pending_ && (r.pith_mm - *pending_).norm() <= tracker_.max_step_mm) {
     last_ = r.pith_mm;
