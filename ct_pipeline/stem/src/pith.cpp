@@ -45,7 +45,7 @@ constexpr double kRefineRadiusMm = 12.0;
 // +- kRingSmoothMm removed; pixels farther than kRingOutlierHu from the wood level ignored; a
 // first grid of kRingGridMm (under a quarter ring width, so the main peak is not stepped over).
 constexpr double kRingMinMm = 1.5;
-constexpr double kRingMaxMm = 24.0;
+constexpr double kRingMaxMm = kRingProfileMaxMm;
 constexpr double kRingBinMm = 0.4;
 constexpr double kRingSmoothMm = 1.6;
 constexpr float kRingOutlierHu = 120.f;
@@ -582,7 +582,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   PithResult res;
   const double sx = g.spacing_x, sy = g.spacing_y;
   const double ring_max = std::max(ring_max_mm, 4 * kRingMinMm);
-  const double reach = ring_max + search_mm + 1.0;
+  const double reach = ring_profile_reach_mm(search_mm, ring_max);
   const int x0 = std::max(0, static_cast<int>((start.x - reach) / sx));
   const int y0 = std::max(0, static_cast<int>((start.y - reach) / sy));
   const int x1 = std::min(s.width - 1, static_cast<int>((start.x + reach) / sx) + 1);

@@ -325,21 +325,25 @@ namespace {
 PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<double>& z,
                       const std::vector<Vec2>& track, const VolumeGeometry& g,
                       const PithOptions& options, const PithRefineOptions& refine, int half,
-                      int i, const std::vector<std::vector<double>>* outlines, Vec2 start) {
+                      int i, const std::vector<std::vector<double>>* outlines, Vec2 start,
+                      const std::vector<float>& levels) {
   const SliceCrop& c = crops[static_cast<size_t>(i)];
   if (c.hu.empty()) return {};
   const int n = static_cast<int>(crops.size());
+  // Only the rows and columns the refinement reads are averaged (the rest stay unused).
+  const Vec2 origin{c.x0 * g.spacing_x, c.y0 * g.spacing_y};
+  const Vec2 prior = start - origin;
+  const double reach = ring_profile_reach_mm(refine.search_radius_mm);
+  const int ux0 = std::max(0, static_cast<int>((prior.x - reach) / g.spacing_x) - 1);
+  const int uy0 = std::max(0, static_cast<int>((prior.y - reach) / g.spacing_y) - 1);
+  const int ux1 = std::min(c.width, static_cast<int>((prior.x + reach) / g.spacing_x) + 3);
+  const int uy1 = std::min(c.height, static_cast<int>((prior.y + reach) / g.spacing_y) + 3);
   Slice avg;
   avg.width = c.width;
   avg.height = c.height;
   avg.hu.assign(c.hu.size(), 0.f);
   std::vector<float> count(avg.hu.size(), 0.f);
-  const double lrx = kLevelRadiusMm / g.spacing_x, lry = kLevelRadiusMm / g.spacing_y;
-  auto level_of = [&](const SliceCrop& m, int j) {
-    return wood_level(m.hu.data(), m.width, m.height, track[j].x / g.spacing_x - m.x0,
-                      track[j].y / g.spacing_y - m.y0, lrx, lry);
-  };
-  const float centre_level = level_of(c, i);
+  const float centre_level = levels[static_cast<size_t>(i)];
   if (std::isnan(centre_level)) return {};
   for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j) {
     const SliceCrop& m = crops[static_cast<size_t>(j)];
@@ -347,7 +351,7 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
     const double change = std::abs(static_cast<double>(m.wood_cells - c.wood_cells));
     if (change > kMaxAreaChange * static_cast<double>(std::max<std::int64_t>(c.wood_cells, 1)))
       continue;
-    const float level = j == i ? centre_level : level_of(m, j);
+    const float level = levels[static_cast<size_t>(j)];
     if (std::isnan(level)) continue;
     // Pixel (x, y) of slice i sees the rings of slice j at (x, y) + drift.
     const Vec2 d = track[j] - track[i];
@@ -355,16 +359,14 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
     const int dy = static_cast<int>(std::lround(d.y / g.spacing_y));
     // Crop-i pixel (x, y) -> crop-j pixel (x + ox, y + oy).
     const int ox = c.x0 + dx - m.x0, oy = c.y0 + dy - m.y0;
-    const int xa = std::max(0, -ox), xb = std::min(c.width, m.width - ox);
-    const int ya = std::max(0, -oy), yb = std::min(c.height, m.height - oy);
+    const int xa = std::max(ux0, -ox), xb = std::min(ux1, m.width - ox);
+    const int ya = std::max(uy0, -oy), yb = std::min(uy1, m.height - oy);
     for (int y = ya; y < yb; ++y)
       add_row(&m.hu[static_cast<size_t>(y + oy) * m.width + ox], level, xa, xb,
               &avg.hu[static_cast<size_t>(y) * c.width], &count[static_cast<size_t>(y) * c.width]);
   }
   for (size_t k = 0; k < avg.hu.size(); ++k)
     avg.hu[k] = count[k] > 0 ? avg.hu[k] / count[k] : centre_level;
-  const Vec2 origin{c.x0 * g.spacing_x, c.y0 * g.spacing_y};
-  const Vec2 prior = start - origin;
   const std::vector<double>* outline =
       outlines && !(*outlines)[static_cast<size_t>(i)].empty() ? &(*outlines)[static_cast<size_t>(i)] : nullptr;
   PithResult r = refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline);
@@ -388,18 +390,43 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
   const int half = slices_within(geometry, refine.average_half_window_mm, refine.max_half_slices);
   const int every = slice_step(geometry, refine.refine_spacing_mm);
   const int threads = std::clamp(refine.threads, 1, 64);
+  auto refined = [&](int i) {
+    return (i % every == 0 || i == n - 1) && (!which || (*which)[static_cast<size_t>(i)]);
+  };
+  // The wood level of every crop an average takes in, around the track, once (each crop is in
+  // the averages of several refined slices).
+  std::vector<char> needed(crops.size(), 0);
+  for (int i = 0; i < n; ++i)
+    if (refined(i))
+      for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j) needed[j] = 1;
+  std::vector<float> levels(crops.size(), NAN);
+  const double lrx = kLevelRadiusMm / geometry.spacing_x, lry = kLevelRadiusMm / geometry.spacing_y;
   std::atomic<int> next{0};
+  auto level_work = [&] {
+    for (int j = next++; j < n; j = next++) {
+      const SliceCrop& m = crops[static_cast<size_t>(j)];
+      if (!needed[j] || m.hu.empty()) continue;
+      levels[static_cast<size_t>(j)] =
+          wood_level(m.hu.data(), m.width, m.height, track[j].x / geometry.spacing_x - m.x0,
+                     track[j].y / geometry.spacing_y - m.y0, lrx, lry);
+    }
+  };
   auto work = [&] {
     for (int i = next++; i < n; i = next++)
-      if ((i % every == 0 || i == n - 1) && (!which || (*which)[static_cast<size_t>(i)]))
+      if (refined(i))
         out[static_cast<size_t>(i)] =
             refine_one(crops, z, track, geometry, options, refine, half, i, outlines,
-                       track[static_cast<size_t>(i)]);
+                       track[static_cast<size_t>(i)], levels);
   };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
+  auto run = [&](auto& fn) {
+    next = 0;
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(fn);
+    fn();
+    for (auto& t : pool) t.join();
+  };
+  run(level_work);
+  run(work);
   return out;
 }
 

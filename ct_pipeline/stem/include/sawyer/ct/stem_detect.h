@@ -75,9 +75,14 @@ double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 
 // stem time has them (DESIGN.md 5); without, as circles, which leans towards the centre of an
 // eccentric section by a fraction of a millimetre. Best on a slice averaged along z
 // (pith_track.h). confidence: signal share of the profile energy (0..1).
+inline constexpr double kRingProfileMaxMm = 24.0;
 PithResult refine_pith_concentric(const Slice& slice, const VolumeGeometry& geometry, Vec2 start,
                                   double search_mm, const std::vector<double>* outline,
-                                  double ring_max_mm = 24.0);
+                                  double ring_max_mm = kRingProfileMaxMm);
+// The pixels refine_pith_concentric reads lie within this distance (mm) of `start`.
+inline double ring_profile_reach_mm(double search_mm, double ring_max_mm = kRingProfileMaxMm) {
+  return ring_max_mm + search_mm + 1.0;
+}
 
 struct ContourOptions {
   int n_angles = 360;
