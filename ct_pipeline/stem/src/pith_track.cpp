@@ -34,6 +34,7 @@ constexpr double kBoxBeyondSearchMm = 40.0;
 // within kAcquireFollowMm (mm) of where the last one put them.
 constexpr int kAcquireSearches = 4;
 constexpr double kAcquireFollowMm = 2.0;
+constexpr int kMaxAcquisitions = 12;
 // A neighbour whose wood area differs from the centre slice's by more than this fraction is past
 // a log end (or a gap in the log) and is not averaged in.
 constexpr double kMaxAreaChange = 0.25;
@@ -287,12 +288,13 @@ void PithTracker::decide(int centre) {
     }
     if (r.found) r.pith_mm = r.pith_mm + origin;
   }
-  bool acquired = false;
-  if (!prior) {
+  if (!prior && acquisitions_ < kMaxAcquisitions) {
+    // The first pith; tried again on the next slices while its rings are too faint to trust,
+    // a bounded number of times (four slices' search each), then the plain way.
     ++full_searches_;
     r = acquire(centre);
-    acquired = r.found;
-  } else if (!r.found || r.confidence < tracker_.min_confidence) {
+    if (r.found) ++acquisitions_;
+  } else if (!prior || !r.found || r.confidence < tracker_.min_confidence) {
     // No prior, or lost near it: search the whole (averaged) slice and keep the better answer.
     ++full_searches_;
     const PithResult q = detect_pith(averaged(centre, nullptr, &origin), geometry_, options_, nullptr);
@@ -300,9 +302,7 @@ void PithTracker::decide(int centre) {
   }
   // A pith moves little between detections: a jump is not trusted as the next prior, unless the
   // next detection lands by it too (the pith turned, or the prior was the one astray).
-  // A first pith found on four slices is the prior even where the rings are faint (a wet or
-  // ringless core): searching four slices again on every slice would cost tens of ms each.
-  const bool confident = r.found && (acquired || r.confidence >= tracker_.min_confidence);
+  const bool confident = r.found && r.confidence >= tracker_.min_confidence;
   const bool jump = last_ && r.found && (r.pith_mm - *last_).norm() > tracker_.max_step_mm;
   if (confident && jump && pending_ && (r.pith_mm - *pending_).norm() <= tracker_.max_step_mm) {
     last_ = r.pith_mm;

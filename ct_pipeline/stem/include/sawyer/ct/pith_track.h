@@ -124,6 +124,7 @@ class PithTracker {
   std::deque<Held> held_;  // indices next_ - half_ .. pushed_ - 1 (those still needed)
   std::optional<Vec2> last_;
   std::optional<Vec2> pending_;  // a confident detection that jumped from last_
+  int acquisitions_ = 0;         // first-pith searches (acquire) that found something
 };
 
 struct PithRefineOptions {
