@@ -91,6 +91,10 @@ double azimuth_fast(double dx, double dy) {
   return a >= kTwoPi ? a - kTwoPi : a;
 }
 
+bool slice_holds_pixels(const Slice& s) {
+  return s.width > 0 && s.height > 0 && s.hu.size() == static_cast<size_t>(s.width) * s.height;
+}
+
 struct Grid {
   int w = 0, h = 0;
   std::vector<float> v;
@@ -625,12 +629,17 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   px.erase(std::remove_if(px.begin(), px.end(),
                           [&](const Px& p) { return std::abs(p.v - level) > kRingOutlierHu; }),
            px.end());
-  // The pixels near the start first: a wide search screens its grid on them alone.
+  // A wide search screens its grid on the pixels near the start alone: those first.
+  const bool screen = search_mm >= kScreenMinSearchMm && ring_max > kScreenRingMm + 4.0;
   const float screen_reach = static_cast<float>(kScreenRingMm + search_mm);
-  const size_t n_near = static_cast<size_t>(
-      std::partition(px.begin(), px.end(),
-                     [&](const Px& p) { return std::sqrt(p.x * p.x + p.y * p.y) * p.k <= screen_reach; }) -
-      px.begin());
+  const size_t n_near =
+      screen ? static_cast<size_t>(std::partition(px.begin(), px.end(),
+                                                  [&](const Px& p) {
+                                                    return std::sqrt(p.x * p.x + p.y * p.y) * p.k <=
+                                                           screen_reach;
+                                                  }) -
+                                   px.begin())
+             : px.size();
   // Structure of arrays, so the per-candidate radius loop vectorises.
   const size_t npx = px.size();
   std::vector<float> fx(npx), fy(npx), fv(npx), fux(npx), fuy(npx), fk(npx), fir(npx);
@@ -644,7 +653,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   // would make every add wait for the previous one. Bin 0 takes the pixels inside the first
   // ring radius, bin nb_all + 1 those beyond the last; 1..nb_all are the profile.
   // Each pixel adds its value and a count in one integer add: the value in 1/kQuantum HU
-  // above bit kCountBits, the count below (exact; a bin holds far fewer than 2^24 pixels).
+  // from bit 24 (kCountOne) up, the count below (exact; a bin holds far fewer than 2^24 pixels).
   constexpr int kLanes = 4;
   constexpr double kQuantum = 64.0;
   constexpr std::int64_t kCountOne = std::int64_t{1} << 24;
@@ -711,7 +720,6 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   Vec2 best{0, 0};
   double bs = -1;
   const int ns = static_cast<int>(search_mm / kRingGridMm);
-  const bool screen = search_mm >= kScreenMinSearchMm && ring_max > kScreenRingMm + 4.0;
   const int nb_screen = static_cast<int>((kScreenRingMm - kRingMinMm) / kRingBinMm) + 1;
   std::vector<std::pair<double, Vec2>> screened;
   for (int j = -ns; j <= ns; ++j)
@@ -772,9 +780,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
 
 std::vector<PithCandidate> pith_candidates(const Slice& slice, const VolumeGeometry& geometry,
                                            const PithOptions& options) {
-  if (slice.width <= 0 || slice.height <= 0 ||
-      slice.hu.size() != static_cast<size_t>(slice.width) * slice.height)
-    return {};
+  if (!slice_holds_pixels(slice)) return {};
   return candidates_without_prior(slice, geometry, options);
 }
 
@@ -792,9 +798,7 @@ double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 
 
 PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,
                        const PithOptions& options, const Vec2* prior_mm) {
-  if (slice.width <= 0 || slice.height <= 0 ||
-      slice.hu.size() != static_cast<size_t>(slice.width) * slice.height)
-    return {};
+  if (!slice_holds_pixels(slice)) return {};
   if (prior_mm) {
     PithResult r = detect_with_prior(slice, geometry, options, *prior_mm);
     if (r.found || !options.fall_back_to_whole_slice) return r;
