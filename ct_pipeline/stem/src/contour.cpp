@@ -470,14 +470,16 @@ HeartwoodResult detect_heartwood(const Slice& slice, const VolumeGeometry& geome
       if (m <= 0 || m >= J) return raw[m];
       return 0.25f * (raw[m - 1] + 2 * raw[m] + raw[m + 1]);
     };
-    if (p(1) < level) continue;  // no sapwood under the surface
+    float prev = p(1);
+    if (prev < level) continue;  // no sapwood under the surface
     for (int m = 2; m <= J; ++m) {
-      const float pm = p(m), prev = p(m - 1);
-      if (!(pm < level && prev >= level)) continue;
+      const float pm = p(m), before = prev;
+      prev = pm;
+      if (!(pm < level && before >= level)) continue;
       win.clear();
       for (int q = m; q <= std::min(J, m + persist); ++q) win.push_back(p(q));
       if (median_inplace(win) >= level) continue;  // a thin dark ring, not the dry core
-      r[k] = h * ((J - m) + (level - pm) / std::max(1e-6f, prev - pm));
+      r[k] = h * ((J - m) + (level - pm) / std::max(1e-6f, before - pm));
       valid[k] = true;
       break;
     }

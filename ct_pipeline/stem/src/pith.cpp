@@ -76,6 +76,33 @@ constexpr int kRefineTensorRadius = 2;
 // scanner's PSF, i.e. the matched filter for the ring borders).
 constexpr int kPrePasses = 1;
 
+// The ring-profile refinement's pixels, structure of arrays (see refine_pith_concentric).
+struct RingPixels {
+  const float *x, *y, *ux, *uy, *k, *inv_r;
+};
+
+// Each pixel's ring-profile bin around (ddx, ddy): the refinement's inner loop. Compiled twice,
+// for AVX2 and for any x86-64, the choice made once at load time; without FMA contraction, so
+// both give the same bins to the bit.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void ring_bins(const RingPixels& p, size_t n, float ddx, float ddy, float lo, float inv_bin,
+               float top, std::int32_t* __restrict bins) {
+  const float* __restrict x = p.x;
+  const float* __restrict y = p.y;
+  const float* __restrict ux = p.ux;
+  const float* __restrict uy = p.uy;
+  const float* __restrict k = p.k;
+  const float* __restrict inv_r = p.inv_r;
+  for (size_t i = 0; i < n; ++i) {
+    const float ex = x[i] - ddx, ey = y[i] - ddy;
+    // d * Rm / (R - delta . u) ~ d * k * (1 + delta . u / R)
+    const float r = std::sqrt(ex * ex + ey * ey) * k[i] * (1.f + (ddx * ux[i] + ddy * uy[i]) * inv_r[i]);
+    bins[i] = static_cast<std::int32_t>(std::min(std::max((r - lo) * inv_bin, 0.f), top));
+  }
+}
+
 // Azimuth of (dx, dy) in [0, 2 pi) within about 1e-5 rad (an odd polynomial for atan on
 // [0, 1] and the octant symmetries); used where a full atan2 per pixel would dominate.
 double azimuth_fast(double dx, double dy) {
@@ -677,13 +704,8 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     const float ddx = static_cast<float>(delta.x), ddy = static_cast<float>(delta.y);
     const float top = static_cast<float>(nb_use + 1);
     const float lo = rmin - kRingBinMmF;  // bin 1 starts at rmin
-    for (size_t i = 0; i < n_use; ++i) {
-      const float ex = fx[i] - ddx, ey = fy[i] - ddy;
-      // d * Rm / (R - delta . u) ~ d * k * (1 + delta . u / R)
-      const float r =
-          std::sqrt(ex * ex + ey * ey) * fk[i] * (1.f + (ddx * fux[i] + ddy * fuy[i]) * fir[i]);
-      bins[i] = static_cast<std::int32_t>(std::min(std::max((r - lo) * inv_bin, 0.f), top));
-    }
+    RingPixels rp{fx.data(), fy.data(), fux.data(), fuy.data(), fk.data(), fir.data()};
+    ring_bins(rp, n_use, ddx, ddy, lo, inv_bin, top, bins.data());
     for (int l = 0; l < kLanes; ++l) std::fill(hist[l].begin(), hist[l].end(), 0);
     size_t i = 0;
     for (; i + kLanes <= n_use; i += kLanes)
@@ -744,8 +766,23 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   }
   // Hill climbing on a 0.25 mm lattice until the best point is the centre of its 3 x 3
   // neighbourhood, then a parabola through that neighbourhood in x and in y.
+  // Points are on the lattice exactly (multiples of 0.25 are exact in binary), and a step
+  // revisits up to 5 of the last neighbourhood's points: their scores are remembered.
   constexpr double h = 0.25;
   std::array<double, 9> nbh{};
+  struct Seen {
+    int i, j;
+    double v;
+  };
+  std::vector<Seen> seen;
+  auto lattice_score = [&](Vec2 at) {
+    const int li = static_cast<int>(std::lround(at.x / h)), lj = static_cast<int>(std::lround(at.y / h));
+    for (const Seen& q : seen)
+      if (q.i == li && q.j == lj) return q.v;
+    const double v = score(at, nullptr);
+    seen.push_back({li, lj, v});
+    return v;
+  };
   for (int it = 0; it < 40; ++it) {
     int arg = 4;
     nbh[4] = bs;
@@ -753,7 +790,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
       for (int i = -1; i <= 1; ++i) {
         if (!i && !j) continue;
         const int q = (j + 1) * 3 + (i + 1);
-        nbh[q] = score({best.x + i * h, best.y + j * h}, nullptr);
+        nbh[q] = lattice_score({best.x + i * h, best.y + j * h});
         if (nbh[q] > nbh[arg]) arg = q;
       }
     if (arg == 4) break;
