@@ -15,6 +15,6 @@ build/apps/sawyer/sawyer phantom sample_logs/gran1_spruce/log.json -o out/demo_c
 echo
 build/apps/sawyer/sawyer info out/demo_ct
 echo
-# Stem analysis of that scan: pith, outer shape and heartwood, with QA images.
+# Analysis of that scan: pith, outer shape, heartwood and knots, with QA images.
 rm -rf out/demo_scan
 build/apps/sawyer/sawyer scan out/demo_ct -o out/demo_scan

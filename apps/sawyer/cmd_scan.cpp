@@ -11,7 +11,9 @@
 
 #include "ct_options.h"
 #include "sawyer/core/file_util.h"
+#include "sawyer/ct/knot_scan.h"
 #include "sawyer/ct/stem_scan.h"
+#include "sawyer/maps/float_maps.h"
 #include "sawyer/maps/published_maps.h"
 #include "sawyer/model/log_json.h"
 
@@ -110,6 +112,68 @@ cv::Mat pith_plot(const ct::StemScan& scan) {
   return img;
 }
 
+// The log's cylinder of pith distance r unrolled: azimuth 0..2π left to right (0.5° per
+// pixel), height down the image (one row per slice, stretched to at least 2 pixels per 5 mm),
+// HU windowed -700..+200 so knots stand out of the dry heartwood. Each fitted knot crossing the
+// cylinder is drawn where its formula puts it, a circle of its fitted diameter (red: dead
+// there, green: sound) with its id.
+cv::Mat unrolled_image(const ct::LogVolume& vol, const Stem& stem, const std::vector<Knot>& knots,
+                       double r) {
+  const int n = vol.slice_count();
+  const int w = 720;
+  const double dz = vol.geometry().slice_spacing() > 0 ? vol.geometry().slice_spacing() : 1.0;
+  const int rows_per = std::max(1, static_cast<int>(std::lround(2.0 * dz / 5.0)));
+  const double px_per_mm_z = rows_per / dz, px_per_rad = w / kTwoPi;
+  cv::Mat grey(std::max(1, n * rows_per), w, CV_8UC1, cv::Scalar(0));
+  for (int i = 0; i < n; ++i) {
+    const double z = vol.geometry().z[static_cast<size_t>(i)];
+    if (z < stem.z_begin() || z > stem.z_end()) continue;
+    const Vec2 c = stem.pith_at(z);
+    for (int k = 0; k < w; ++k) {
+      const double om = kTwoPi * (k + 0.5) / w;
+      const double v = vol.at(i, c.x + r * std::cos(om), c.y + r * std::sin(om));
+      const auto g = static_cast<unsigned char>(std::clamp((v + 700.0) / 900.0 * 255.0, 0.0, 255.0));
+      for (int q = 0; q < rows_per; ++q) grey.at<unsigned char>(i * rows_per + q, k) = g;
+    }
+  }
+  cv::Mat img;
+  cv::cvtColor(grey, img, cv::COLOR_GRAY2BGR);
+  const double z_first = n ? vol.geometry().z.front() : 0.0;
+  for (const Knot& k : knots) {
+    if (r > k.r_end) continue;
+    const cv::Point at(static_cast<int>(k.azimuth_at(r) * px_per_rad),
+                       static_cast<int>((k.height_at(r) - z_first) * px_per_mm_z + 0.5 * rows_per));
+    const int rad = std::max(2, static_cast<int>(0.5 * k.diameter_at(r) * px_per_mm_z));
+    const cv::Scalar colour = k.dead_at(r) ? cv::Scalar(0, 0, 255) : cv::Scalar(0, 200, 0);
+    cv::circle(img, at, rad, colour, 1, cv::LINE_AA);
+    cv::putText(img, std::to_string(k.id), at + cv::Point(rad + 2, 4), cv::FONT_HERSHEY_SIMPLEX,
+                0.35, colour, 1, cv::LINE_AA);
+  }
+  char text[64];
+  std::snprintf(text, sizeof text, "r = %.0f mm, azimuth 0..360 deg", r);
+  cv::putText(img, text, {6, 14}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 0), 1,
+              cv::LINE_AA);
+  return img;
+}
+
+// One line per knot: the fitted formula, the diameter profile and the fit's quality.
+std::string knot_table(const ct::KnotScan& k) {
+  std::string out =
+      "id,z0_mm,a,b,omega0_rad,twist,r_dead_mm,r_end_mm,d_dead_mm,exponent,height_at_50_mm,"
+      "azimuth_at_50_deg,axis_rms_mm,diameter_rms_mm,shells\n";
+  char line[512];
+  for (size_t i = 0; i < k.knots.size(); ++i) {
+    const Knot& q = k.knots[i];
+    std::snprintf(line, sizeof line,
+                  "%d,%.2f,%.4f,%.4f,%.4f,%.4f,%.1f,%.1f,%.2f,%.3f,%.1f,%.1f,%.2f,%.2f,%d\n", q.id,
+                  q.z0, q.a, q.b, q.omega0, q.twist, q.r_dead, q.r_end, q.diameter.d_dead,
+                  q.diameter.exponent, q.height_at(50), q.azimuth_at(50) * 180 / kPi,
+                  k.fits[i].axis_rms_mm, k.fits[i].diameter_rms_mm, q.support);
+    out += line;
+  }
+  return out;
+}
+
 int run_scan(const ScanCli& c) {
   auto fail = [](const Error& e) {
     std::cerr << "sawyer: " << e.message() << "\n";
@@ -120,6 +184,8 @@ int run_scan(const ScanCli& c) {
   ct::SliceSource& src = *opened.value();
   ct::StemScanOptions o;
   o.threads = c.threads;
+  ct::LogVolume volume = ct::LogVolume::empty_like(src.geometry());
+  o.volume = &volume;
   int next = 1;
   const int n = src.geometry().slice_count();
   auto scan = ct::scan_stem(src, o, [&](int done, int all) {
@@ -130,16 +196,24 @@ int run_scan(const ScanCli& c) {
   });
   if (!scan) return fail(scan.error());
   const ct::StemScan& s = scan.value();
+  std::cerr << "knots: detecting and fitting...\n";
+  ct::KnotScanOptions ko;
+  ko.threads = c.threads;
+  auto knot_scan = ct::scan_knots(volume, s.stem, ko);
+  if (!knot_scan) return fail(knot_scan.error().with_context(c.input));
+  const ct::KnotScan& ks = knot_scan.value();
 
   LogModel log;
   log.id = c.id.empty() ? fs::path(c.input).filename().string() : c.id;
   log.species = c.species;
   log.source = "sawyer scan of " + fs::path(c.input).filename().string() + " (" + src.description() + ")";
   log.stem = s.stem;
+  log.knots = ks.knots;
 
   Status st = write_dir_atomic(c.output, [&](const fs::path& tmp) -> Status {
     if (Status w = write_log_json(log, tmp / "log.json"); !w) return w;
     if (Status w = export_published_maps(log, tmp / "maps"); !w) return w;
+    if (Status w = export_float_maps(log, tmp / "maps_float"); !w) return w;
     fs::create_directories(tmp / "qa");
     ct::Slice slice;
     const int k = std::max(1, c.qa_slices);
@@ -153,16 +227,24 @@ int run_scan(const ScanCli& c) {
     }
     if (!cv::imwrite((tmp / "qa" / "pith_track.png").string(), pith_plot(s)))
       return Error(c.output, "cannot write qa/pith_track.png");
+    for (double r : {30.0, 60.0, 90.0}) {
+      const std::string name = "unrolled_r" + std::to_string(static_cast<int>(r)) + ".png";
+      if (!cv::imwrite((tmp / "qa" / name).string(), unrolled_image(volume, s.stem, ks.knots, r)))
+        return Error(c.output, "cannot write qa/" + name);
+    }
+    if (Status w = write_text_file_atomic(tmp / "qa" / "knots.csv", knot_table(ks)); !w) return w;
     return Status::Ok();
   });
   if (!st) return fail(st.error());
   int outliers = 0;
   for (const auto& r : s.slices) outliers += r.pith_outlier;
   std::printf("scanned %s: %d slices in %.2f s, %.0f slices/s on %d threads; stem %d samples of "
-              "%.1f mm%s; %d refined piths rejected as outliers; wrote %s\n",
+              "%.1f mm%s; %d refined piths rejected as outliers; %zu knots in %.2f s "
+              "(detection %.2f s, fits %.2f s; %zu candidates not fitted); wrote %s\n",
               c.input.c_str(), n, s.seconds, s.slices_per_second(), s.threads,
               s.stem.slice_count(), s.stem.dz_mm, s.stem.heartwood.empty() ? "" : " with heartwood",
-              outliers, c.output.c_str());
+              outliers, ks.knots.size(), ks.seconds, ks.seconds_detect, ks.seconds_fit,
+              ks.rejected.size(), c.output.c_str());
   return 0;
 }
 
@@ -171,10 +253,10 @@ int run_scan(const ScanCli& c) {
 void add_scan_command(CLI::App& app, std::function<int()>& run) {
   auto c = std::make_shared<ScanCli>();
   CLI::App* cmd = app.add_subcommand(
-      "scan", "Analyse a CT scan of a log: pith, outer shape and heartwood (log.json, maps, QA)");
+      "scan", "Analyse a CT scan of a log: pith, outer shape, heartwood and knots (log.json, maps, QA)");
   cmd->add_option("input", c->input, "CT scan: DICOM/TIFF/PNG folder, .vti, .mha, .nrrd")
       ->required();
-  cmd->add_option("-o,--output", c->output, "folder to write (log.json, maps/, qa/)")->required();
+  cmd->add_option("-o,--output", c->output, "folder to write (log.json, maps/, maps_float/, qa/)")->required();
   cmd->add_option("--species", c->species, "species written into log.json")->capture_default_str();
   cmd->add_option("--id", c->id, "log id (default: the scan's folder name)");
   cmd->add_option("--threads", c->threads, "worker threads (default: all cores)");

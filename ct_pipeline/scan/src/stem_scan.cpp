@@ -160,6 +160,12 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
         if (rec.measured) {
           rec.contour = detect_contour(job.slice, g, job.pith, options.contour);
           rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, options.heartwood);
+          if (options.volume) {
+            double rmax = 0;
+            for (size_t k = 0; k < rec.contour.radius.size(); ++k)
+              if (rec.contour.valid[k]) rmax = std::max(rmax, rec.contour.radius[k]);
+            if (rmax > 0) options.volume->keep(job.index, job.slice, job.pith, rmax + options.volume_margin_mm);
+          }
         }
         pool.put(std::move(job.slice));
       }

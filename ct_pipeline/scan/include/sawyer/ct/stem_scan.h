@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "sawyer/core/result.h"
+#include "sawyer/ct/log_volume.h"
 #include "sawyer/ct/pith_track.h"
 #include "sawyer/ct/slice_source.h"
 #include "sawyer/ct/stem_detect.h"
@@ -45,6 +46,12 @@ struct StemScanOptions {
   double first_search_mm = 4.0;
   double max_correction_mm = 6.0;
   double converged_mm = 0.25;
+  // When set (an empty_like volume of the source's geometry), every slice with a contour is
+  // also kept here, cropped to the contour's largest radius plus volume_margin_mm around the
+  // first track's pith (which the refinement moves by at most max_correction_mm): the knot
+  // pass reads these instead of the scan a second time.
+  LogVolume* volume = nullptr;
+  double volume_margin_mm = 20.0;
 };
 
 struct StemSliceRecord {

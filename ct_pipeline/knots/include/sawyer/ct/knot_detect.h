@@ -1,0 +1,105 @@
+// Knot detection and segmentation (issue 5): from the log's voxels and its stem (pith track,
+// outer radius, heartwood radius), every knot as a trace of per-shell measurements from near the
+// pith outwards, ready for the knot-formula fit (knot_fit.h).
+//
+// Coordinates: the volume is unrolled around the pith track into (r, ω, z): pith distance r
+// (mm), azimuth ω = atan2(y − pith_y, x − pith_x) in [0, 2π) (DESIGN.md 3), height z (scanner
+// mm, the slice positions). A knot is then a near-straight tube rising slowly with r.
+//
+//   KnotDetectOptions o;
+//   std::vector<KnotTrace> traces = detect_knots(volume, stem, o);
+//
+// The wood level, and so the contrast, is taken per wood class: heartwood and sapwood from the
+// stem's heartwood radius, or, for a stem without one, from a border estimated from the voxels
+// (where the sector-median HU drops 200 HU going inwards).
+//
+// Thread-safe (pure); uses up to options.threads threads. Memory: the unrolled grid, 2 bytes a
+// sample (800 slices x 125 shells x 360 azimuths: 72 MB).
+#pragma once
+
+#include <cmath>
+#include <vector>
+
+#include "sawyer/ct/log_volume.h"
+#include "sawyer/model/log_model.h"
+
+namespace sawyer::ct {
+
+struct KnotDetectOptions {
+  double dr_mm = 1.0;          // radial step of the unrolled volume (shells at dr, 2·dr, ...)
+  int n_omega = 360;           // azimuth samples (1°: 1.7 mm of arc at r = 100 mm)
+  double min_diameter_mm = 4;  // smaller blobs are noise, not knots
+  double min_r_mm = 5;         // segment from here outwards (the pith itself is not a knot)
+  // Segmentation (contrast = HU minus the wood level of the same slice, r and wood class):
+  // blobs of samples >= low_contrast holding one >= high_contrast. Knots in dry heartwood are
+  // about +500 (sound) and +320 (dead); in wet sapwood +50 and -130 only, which is why knots
+  // are segmented where they are strong and followed from there (see follow_*).
+  double low_contrast = 120;
+  double high_contrast = 250;
+  double min_length_mm = 4;  // shorter segmented runs along r are noise
+  // Two blobs of one knot's shell whose centroids are this far apart (on the cylinder) are two
+  // knots that touched further out; closer, they are one knot broken up by noise.
+  double min_split_mm = 8;
+  int level_half_window = 3;  // slices either side pooled for the wood level (whorls)
+  // Following outwards along the extrapolated axis: a shell is evidence when the mean contrast
+  // of three shells is beyond ±follow_min_contrast (or the ring below twice its negative); the
+  // knot ends after follow_misses shells without evidence.
+  double follow_min_contrast = 20;
+  int follow_misses = 3;
+  double surface_mm = 4;  // reaches_surface: last seen within this of the outer radius
+  // Shell diameter from the widest arc instead of the partial-volume area (see KnotShell).
+  bool diameter_from_arc = false;
+  int threads = 0;  // 0: hardware concurrency
+};
+
+// One cylindrical shell (pith distance r) cut through a knot: where the knot crosses it and how
+// big and dense it is there.
+struct KnotShell {
+  double r = 0;      // pith distance of the shell, mm
+  double omega = 0;  // azimuth of the knot's centre on the shell, rad
+  double z = 0;      // height of the knot's centre on the shell, mm (scanner z)
+  // Equivalent diameter of the knot's cross-section on the shell, mm: from its area on the
+  // cylinder, each sample counting for the fraction (contrast / knot contrast) of its r·dω by
+  // slice-spacing cell (slices are 5 mm apart and as thick: a 10 mm knot covers two or three
+  // slices, mostly partly, so counting whole samples would quantise the area in z). On
+  // predicted shells, the mean diameter of the last segmented shells (not measured).
+  double diameter = 0;
+  double contrast = 0;     // knot HU minus the wood's HU (median of the same slice, r and wood
+                           // class over ω), mean over the knot's samples on the shell
+  double ring_hu = 0;      // contrast of a thin ring just outside the knot (1-3 mm of arc beside
+                           // it; on predicted shells a 2 mm ring around the disc). Negative:
+                           // encased bark or resin, a dead knot's sign
+  double core_hu = NAN;    // HU (not contrast) of the knot's core on the shell: sound knots are
+                           // denser than dead ones whatever the wood around them (NaN: unknown)
+  int voxels = 0;          // samples of the unrolled shell inside the knot (dω by slice)
+  bool predicted = false;  // followed by the axis prediction (weak contrast: sapwood), not
+                           // segmented by threshold
+};
+
+// One knot's evidence: shells ordered by r (ascending, one per r step at most).
+struct KnotTrace {
+  std::vector<KnotShell> shells;
+  double r_last_seen = 0;        // the outermost r with knot evidence (mm): where the knot ends;
+                                 // the last shell's r (the outermost 2 mm under the bark are not
+                                 // searched, so a knot cut by the surface ends ~2 mm short of it)
+  bool reaches_surface = false;  // r_last_seen within surface_mm of the outer radius
+};
+
+// What the pass did and how long each step took (wall seconds).
+struct KnotDetectSummary {
+  int shells = 0, slices = 0, omegas = 0;  // the unrolled grid
+  int blobs = 0;                           // segmented 2D blobs, all shells
+  int tracks = 0;                          // linked runs before the length/size filters
+  int traces = 0;                          // knots returned
+  // unroll_s includes estimating the heartwood border (stems without one); follow_s includes
+  // measuring the segmented shells.
+  double unroll_s = 0, contrast_s = 0, segment_s = 0, track_s = 0, follow_s = 0, total_s = 0;
+};
+
+// Traces ordered by the height, then azimuth, of their innermost shell. Empty for an empty
+// volume or stem. `summary` (optional) receives counts and timings.
+std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
+                                    const KnotDetectOptions& options,
+                                    KnotDetectSummary* summary = nullptr);
+
+}  // namespace sawyer::ct

@@ -1,0 +1,990 @@
+// Knot detection and segmentation (issue 5, see knot_detect.h).
+//
+// The steps, one function each:
+//   1. unroll()        the volume around the pith track into a (slice, r, ω) grid of HU, with
+//                      the wood class of every sample (heartwood, sapwood, neither) from the
+//                      stem, or from estimate_heartwood() when the stem has no heartwood radius;
+//   2. to_contrast()   HU minus the wood level of the same (slice, r) band and wood class, so
+//                      that only what differs from the wood around it is left: knots, cracks;
+//   3. label_shell()   per shell (fixed r), 2D blobs in (ω, slice) of strong contrast
+//                      (hysteresis), ω circular;
+//   4. track_inwards() links the blobs of neighbouring shells into knots, from the bark side
+//                      towards the pith, because knots of a whorl are apart near the surface and
+//                      all meet at the pith: a blob claimed by two knots is split between them;
+//                      resolve_branches() does the same outwards for knots that touch further
+//                      out and part towards the pith;
+//   5. measure_shell() centroid, diameter, contrast and ring of each knot on each shell
+//                      (shells cut by the heartwood border band are left out: truncated());
+//   6. follow_outwards() beyond the segmented part (the sapwood, where a knot differs from the
+//                      wood by tens of HU only) along the axis extrapolated from the inner
+//                      shells, to where the knot ends;
+//   7. merge_pieces()  joins traces that are pieces of one knot.
+#include "sawyer/ct/knot_detect.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <thread>
+#include <unordered_map>
+
+namespace sawyer::ct {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+// Contrast value of samples that belong to no wood class: outside the log, in the bark, or on
+// the heartwood border where a sample mixes both classes.
+constexpr std::int16_t kInvalid = std::numeric_limits<std::int16_t>::min();
+
+// Nearest integer as int16 (std::lround is a library call, and this runs per sample).
+std::int16_t round_hu(double x) {
+  x = std::clamp(x, -32000.0, 32000.0);
+  return static_cast<std::int16_t>(x >= 0 ? x + 0.5 : x - 0.5);
+}
+
+double wrap_2pi(double a) {
+  a = std::fmod(a, kTwoPi);
+  return a < 0 ? a + kTwoPi : a;
+}
+
+// Signed smallest difference a − b of two angles, in (−π, π].
+double angle_diff(double a, double b) {
+  double d = std::fmod(a - b, kTwoPi);
+  if (d > kTwoPi / 2) d -= kTwoPi;
+  if (d <= -kTwoPi / 2) d += kTwoPi;
+  return d;
+}
+
+template <class F>
+void parallel_for(int n, int threads, F&& f) {
+  threads = std::clamp(threads, 1, std::max(1, n));
+  if (threads == 1) {
+    for (int i = 0; i < n; ++i) f(i);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t)
+    pool.emplace_back([&, t] {
+      for (int i = t; i < n; i += threads) f(i);
+    });
+  for (auto& th : pool) th.join();
+}
+
+// The unrolled volume: slice i, shell j (r = r0 + j·dr), azimuth k (ω = k·dω).
+struct Grid {
+  int ns = 0, nr = 0, nw = 0;
+  double r0 = 0, dr = 1, dw = 0;
+  std::vector<double> z;  // slice heights (scanner mm)
+  // Per slice and azimuth [i·nw + k], the shells where the wood class changes: heartwood below
+  // heart_in, the border band up to sap_in, sapwood up to out, then bark and air. The border
+  // band (±2 mm of the heartwood radius) belongs to no class because blur and the border's own
+  // roughness mix the two there; the last 2 mm under the bark neither (bark, blur).
+  std::vector<std::int16_t> heart_in, sap_in, out;
+  std::vector<std::int16_t> hu;  // HU, then contrast [(i·nr + j)·nw + k]
+  // The wood level each contrast was taken from, per slice, shell and class [(i·nr + j)·2 + c]
+  // (NaN where none): contrast + level gives the HU back.
+  std::vector<float> level;
+  double hu_at(int i, int j, int k) const {
+    const int c = wood_class(i, j, k);
+    const std::int16_t v = hu[at(i, j, k)];
+    if (c < 0 || v == std::numeric_limits<std::int16_t>::min()) return NAN;
+    return v + level[(static_cast<size_t>(i) * nr + j) * 2 + c];
+  }
+
+  double r(int j) const { return r0 + j * dr; }
+  size_t at(int i, int j, int k) const { return (static_cast<size_t>(i) * nr + j) * nw + k; }
+  // First shell with radius > r.
+  std::int16_t shell_above(double rr) const {
+    return static_cast<std::int16_t>(
+        std::clamp(static_cast<int>(std::floor((rr - r0) / dr)) + 1, 0, nr));
+  }
+  void set_heartwood(size_t q, double h, double band) {
+    heart_in[q] = std::min(out[q], shell_above(h - band));
+    sap_in[q] = std::min(out[q], shell_above(h + band));
+  }
+  // 0 heartwood, 1 sapwood, -1 neither (see kInvalid).
+  int wood_class(int i, int j, int k) const {
+    const size_t q = static_cast<size_t>(i) * nw + k;
+    if (j < heart_in[q]) return 0;
+    if (j < sap_in[q]) return -1;
+    return j < out[q] ? 1 : -1;
+  }
+};
+
+Grid unroll(const LogVolume& volume, const Stem& stem, const KnotDetectOptions& o, int threads) {
+  Grid g;
+  const VolumeGeometry& geo = volume.geometry();
+  g.ns = volume.slice_count();
+  g.nw = std::max(8, o.n_omega);
+  g.dw = kTwoPi / g.nw;
+  g.dr = o.dr_mm > 0 ? o.dr_mm : 1.0;
+  g.r0 = g.dr;
+  g.z.assign(geo.z.begin(), geo.z.end());
+  const size_t nq = static_cast<size_t>(g.ns) * g.nw;
+  std::vector<float> outer(nq, 0.f), heart(nq, 0.f);
+  auto in_stem = [&](int i) {
+    const double z = g.z[static_cast<size_t>(i)];
+    return volume.plane(i).width > 1 && z >= stem.z_begin() && z <= stem.z_end();
+  };
+  parallel_for(g.ns, threads, [&](int i) {
+    if (!in_stem(i)) return;
+    const double z = g.z[static_cast<size_t>(i)];
+    for (int k = 0; k < g.nw; ++k) {
+      const size_t q = static_cast<size_t>(i) * g.nw + k;
+      outer[q] = static_cast<float>(stem.radius_at(k * g.dw, z));
+      if (stem.has_heartwood()) heart[q] = static_cast<float>(stem.heartwood_at(k * g.dw, z));
+    }
+  });
+  const double rmax = nq ? *std::max_element(outer.begin(), outer.end()) : 0.0;
+  g.nr = std::max(1, static_cast<int>(std::ceil((rmax - g.r0) / g.dr)) + 1);
+  g.heart_in.assign(nq, 0), g.sap_in.assign(nq, 0), g.out.assign(nq, 0);
+  for (size_t q = 0; q < nq; ++q) {
+    if (outer[q] <= 0) continue;
+    g.out[q] = g.shell_above(outer[q] - 2.0);
+    if (heart[q] > 0) g.set_heartwood(q, heart[q], 2.0);
+  }
+  g.hu.assign(static_cast<size_t>(g.ns) * g.nr * g.nw, kInvalid);
+  // Direct bilinear sampling of the kept plane (LogVolume::at, without its per-call setup).
+  const double sx = geo.spacing_x, sy = geo.spacing_y;
+  std::vector<double> cw(static_cast<size_t>(g.nw)), sw(static_cast<size_t>(g.nw));
+  for (int k = 0; k < g.nw; ++k) cw[k] = std::cos(k * g.dw) / sx, sw[k] = std::sin(k * g.dw) / sy;
+  parallel_for(g.ns, threads, [&](int i) {
+    if (!in_stem(i)) return;
+    const LogPlane& pl = volume.plane(i);
+    const Vec2 p = stem.pith_at(g.z[static_cast<size_t>(i)]);
+    const double c0 = p.x / sx - pl.x0, r0 = p.y / sy - pl.y0;
+    for (int k = 0; k < g.nw; ++k) {
+      const int jend = g.out[static_cast<size_t>(i) * g.nw + k];
+      for (int j = 0; j < jend; ++j) {
+        const double rr = g.r(j);
+        const double c = c0 + rr * cw[k], r = r0 + rr * sw[k];
+        if (!(c >= 0.0 && r >= 0.0 && c < pl.width - 1 && r < pl.height - 1)) continue;
+        const int ci = static_cast<int>(c), ri = static_cast<int>(r);
+        const float fc = static_cast<float>(c - ci), fr = static_cast<float>(r - ri);
+        const std::int16_t* v = &pl.hu[static_cast<size_t>(ri) * pl.width + ci];
+        const float a = v[0] + fc * static_cast<float>(v[1] - v[0]);
+        const float b = v[pl.width] + fc * static_cast<float>(v[pl.width + 1] - v[pl.width]);
+        g.hu[g.at(i, j, k)] = round_hu(a + fr * (b - a));
+      }
+    }
+  });
+  return g;
+}
+
+// The heartwood border from the data, for stems that do not carry one (a model without it, a
+// scan that did not measure it): per slice and 10° sector, the median HU of each shell (knots
+// cover little of a sector), then the median of five slices; the sapwood level is that of the
+// outermost wood shells, and the border is where, going inwards, the profile first drops
+// 200 HU below it (dry heartwood is some 450 HU lighter than wet sapwood; no drop: no
+// heartwood in that sector). Between sector centres the border is interpolated in ω, and the
+// unclassified band around it is wider (±3 mm) than for a measured border.
+void estimate_heartwood(Grid& g, int threads) {
+  constexpr int kSectors = 36;
+  constexpr double kDrop = 200, kBand = 3.0;
+  const int per = std::max(1, g.nw / kSectors);
+  const size_t n_prof = static_cast<size_t>(kSectors) * g.nr;
+  std::vector<float> prof(static_cast<size_t>(g.ns) * n_prof,
+                          std::numeric_limits<float>::quiet_NaN());
+  parallel_for(g.ns, threads, [&](int i) {
+    std::vector<std::int16_t> v;
+    for (int sct = 0; sct < kSectors; ++sct)
+      for (int j = 0; j < g.nr; ++j) {
+        v.clear();
+        for (int k = sct * per; k < std::min(g.nw, (sct + 1) * per); ++k) {
+          const std::int16_t x = g.hu[g.at(i, j, k)];
+          if (x != kInvalid && j < g.out[static_cast<size_t>(i) * g.nw + k]) v.push_back(x);
+        }
+        if (v.size() * 2 < static_cast<size_t>(per)) continue;
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        prof[i * n_prof + static_cast<size_t>(sct) * g.nr + j] = v[v.size() / 2];
+      }
+  });
+  parallel_for(g.ns, threads, [&](int i) {
+    std::array<double, kSectors> border{};
+    std::vector<float> w, p(static_cast<size_t>(g.nr));
+    for (int sct = 0; sct < kSectors; ++sct) {
+      int last = -1;  // outermost shell with a profile value
+      for (int j = 0; j < g.nr; ++j) {
+        w.clear();
+        for (int ii = std::max(0, i - 2); ii <= std::min(g.ns - 1, i + 2); ++ii) {
+          const float x = prof[ii * n_prof + static_cast<size_t>(sct) * g.nr + j];
+          if (!std::isnan(x)) w.push_back(x);
+        }
+        p[static_cast<size_t>(j)] = std::numeric_limits<float>::quiet_NaN();
+        if (w.empty()) continue;
+        std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
+        p[static_cast<size_t>(j)] = w[w.size() / 2];
+        last = j;
+      }
+      if (last < 8) continue;
+      double sap = 0;
+      int ns = 0;
+      for (int j = last; j > last - 5; --j)
+        if (!std::isnan(p[static_cast<size_t>(j)])) sap += p[static_cast<size_t>(j)], ++ns;
+      sap /= std::max(1, ns);
+      for (int j = last - 5; j >= 0; --j)
+        if (p[static_cast<size_t>(j)] < sap - kDrop) {
+          border[static_cast<size_t>(sct)] = g.r(j) + 0.5 * g.dr;
+          break;
+        }
+    }
+    for (int k = 0; k < g.nw; ++k) {
+      // Linear between the two nearest sector centres, circular; a sector without heartwood
+      // next to one with it gives no heartwood on its half.
+      const double f = (k + 0.5) / per - 0.5;
+      const int s0 = static_cast<int>(std::floor(f));
+      const double t = f - s0;
+      const double b0 = border[static_cast<size_t>((s0 % kSectors + kSectors) % kSectors)];
+      const double b1 = border[static_cast<size_t>(((s0 + 1) % kSectors + kSectors) % kSectors)];
+      const double h = (b0 > 0 && b1 > 0) ? b0 + t * (b1 - b0) : (t < 0.5 ? b0 : b1);
+      const size_t q = static_cast<size_t>(i) * g.nw + k;
+      if (h > 0) g.set_heartwood(q, h, kBand);
+    }
+  });
+}
+
+// HU → contrast. The wood level of (slice i, shell j, class c) is the median over ω of that
+// row's samples of class c, then the median of those row levels over a few slices either side:
+// at a whorl near the pith the knots cover most of the circumference of a few slices, and the
+// neighbouring slices, clear of the whorl, carry the level there. The median over ω also takes
+// out the radial density trend and most of the annual rings (they are near circles).
+void to_contrast(Grid& g, int threads, int half_window) {
+  const float kNone = std::numeric_limits<float>::quiet_NaN();
+  const int stride = g.nw >= 180 ? 2 : 1;
+  std::vector<float> level(static_cast<size_t>(g.ns) * g.nr * 2, kNone);
+  parallel_for(g.ns, threads, [&](int i) {
+    std::array<std::vector<std::int16_t>, 2> v;
+    for (int j = 0; j < g.nr; ++j) {
+      v[0].clear(), v[1].clear();
+      const std::int16_t* row = &g.hu[g.at(i, j, 0)];
+      // Every other azimuth is plenty for a median (and halves the cost of the pass).
+      for (int k = 0; k < g.nw; k += stride) {
+        const int c = g.wood_class(i, j, k);
+        if (c >= 0 && row[k] != kInvalid) v[static_cast<size_t>(c)].push_back(row[k]);
+      }
+      for (int c = 0; c < 2; ++c) {
+        auto& x = v[static_cast<size_t>(c)];
+        if (static_cast<int>(x.size()) * stride < g.nw / 10) continue;  // too few: no level
+        std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+        level[(static_cast<size_t>(i) * g.nr + j) * 2 + c] = x[x.size() / 2];
+      }
+    }
+  });
+  std::vector<float> smooth(level.size(), kNone);
+  parallel_for(g.ns, threads, [&](int i) {
+    std::vector<float> w;
+    for (int j = 0; j < g.nr; ++j)
+      for (int c = 0; c < 2; ++c) {
+        w.clear();
+        for (int d = -half_window; d <= half_window; ++d) {
+          const int ii = i + d;
+          if (ii < 0 || ii >= g.ns) continue;
+          const float l = level[(static_cast<size_t>(ii) * g.nr + j) * 2 + c];
+          if (!std::isnan(l)) w.push_back(l);
+        }
+        if (w.empty()) continue;
+        std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
+        smooth[(static_cast<size_t>(i) * g.nr + j) * 2 + c] = w[w.size() / 2];
+      }
+  });
+  parallel_for(g.ns, threads, [&](int i) {
+    for (int j = 0; j < g.nr; ++j) {
+      std::int16_t* row = &g.hu[g.at(i, j, 0)];
+      for (int k = 0; k < g.nw; ++k) {
+        const int c = g.wood_class(i, j, k);
+        const float l = c < 0 ? kNone : smooth[(static_cast<size_t>(i) * g.nr + j) * 2 + c];
+        if (row[k] == kInvalid || std::isnan(l)) {
+          row[k] = kInvalid;
+          continue;
+        }
+        row[k] = round_hu(static_cast<double>(row[k]) - l);
+      }
+    }
+  });
+  g.level = std::move(smooth);
+}
+
+// A connected set of samples of one shell; pixels are i·nw + k.
+struct Blob {
+  std::vector<int> pix;
+};
+
+// Blobs of one shell: samples ≥ low connected (8-neighbourhood, ω circular), kept when one of
+// them reaches high and their area on the cylinder (r·dω per sample times the slice spacing) is
+// at least a quarter of a min_diameter disc (partial volume in z shrinks small knots).
+std::vector<Blob> label_shell(const Grid& g, int j, double low, double high, double min_area,
+                              double dz) {
+  std::vector<Blob> out;
+  const int n = g.ns * g.nw;
+  std::vector<std::uint8_t> seen(static_cast<size_t>(n), 0);
+  std::vector<int> stack;
+  const double px_area = g.r(j) * g.dw * dz;
+  for (int s = 0; s < n; ++s) {
+    if (seen[s]) continue;
+    const std::int16_t c0 = g.hu[g.at(s / g.nw, j, s % g.nw)];
+    if (c0 == kInvalid || c0 < low) continue;
+    Blob b;
+    bool strong = false;
+    stack.assign(1, s);
+    seen[s] = 1;
+    while (!stack.empty()) {
+      const int p = stack.back();
+      stack.pop_back();
+      b.pix.push_back(p);
+      const int i = p / g.nw, k = p % g.nw;
+      strong = strong || g.hu[g.at(i, j, k)] >= high;
+      for (int di = -1; di <= 1; ++di) {
+        const int ii = i + di;
+        if (ii < 0 || ii >= g.ns) continue;
+        for (int dk = -1; dk <= 1; ++dk) {
+          const int kk = (k + dk + g.nw) % g.nw;
+          const int q = ii * g.nw + kk;
+          if (seen[q]) continue;
+          const std::int16_t c = g.hu[g.at(ii, j, kk)];
+          if (c == kInvalid || c < low) continue;
+          seen[q] = 1;
+          stack.push_back(q);
+        }
+      }
+    }
+    if (strong && static_cast<double>(b.pix.size()) * px_area >= min_area)
+      out.push_back(std::move(b));
+  }
+  return out;
+}
+
+// One knot while tracking: its blob on each shell, from the outside in.
+struct Track {
+  std::vector<int> shell;             // shell index j of each entry
+  std::vector<std::vector<int>> pix;  // the knot's samples on that shell
+  double w = 0, z = 0;                // centroid of the latest shell (for splitting)
+  bool active = true;
+  int parent = -1;     // the track this one branched off (knots that touched)
+  bool split = false;  // ended by branching: its shells go to its branches
+  int gap = 0;         // shells in a row without a blob
+};
+
+void centroid(const Grid& g, int j, const std::vector<int>& pix, double* w, double* z) {
+  // Circular mean in ω (the blob may straddle ω = 0), contrast-weighted.
+  double sx = 0, sy = 0, sz = 0, sw = 0;
+  for (int p : pix) {
+    const int i = p / g.nw, k = p % g.nw;
+    const double c = std::max(1.0, static_cast<double>(g.hu[g.at(i, j, k)]));
+    sx += c * std::cos(k * g.dw), sy += c * std::sin(k * g.dw);
+    sz += c * g.z[static_cast<size_t>(i)], sw += c;
+  }
+  *w = wrap_2pi(std::atan2(sy, sx));
+  *z = sw > 0 ? sz / sw : 0;
+}
+
+// Distance on the cylinder of radius r between (w0, z0) and (w1, z1), mm.
+double cyl_dist(double r, double w0, double z0, double w1, double z1) {
+  return std::hypot(r * angle_diff(w0, w1), z0 - z1);
+}
+
+// Gives each sample of `pix` (shell j) to the nearest of `centres` (ω, z); returns the parts.
+std::vector<std::vector<int>> split_nearest(const Grid& g, int j, const std::vector<int>& pix,
+                                            const std::vector<std::pair<double, double>>& centres) {
+  std::vector<std::vector<int>> parts(centres.size());
+  for (int p : pix) {
+    const double w = (p % g.nw) * g.dw, z = g.z[static_cast<size_t>(p / g.nw)];
+    size_t best = 0;
+    double bd = 1e300;
+    for (size_t c = 0; c < centres.size(); ++c) {
+      const double d = cyl_dist(g.r(j), w, z, centres[c].first, centres[c].second);
+      if (d < bd) bd = d, best = c;
+    }
+    parts[best].push_back(p);
+  }
+  return parts;
+}
+
+// Links the blobs of all shells into tracks, from the outermost shell to j_min.
+//  - A blob that overlaps the previous shell's samples of no track starts one.
+//  - A blob that overlaps two or more tracks is where knots meet (towards the pith, a whorl):
+//    its samples go to the nearest track's last centroid.
+//  - Several blobs overlapping one track: noise breaking a knot up (close together: all
+//    continue the track), or two knots that touched further out and part here (centroids at
+//    least min_split_mm apart, each a quarter of the larger): the track ends and each part
+//    starts a branch; resolve_branches() then shares the touching part between the branches.
+std::vector<Track> track_inwards(const Grid& g, const std::vector<std::vector<Blob>>& blobs,
+                                 int j_min, double min_split_mm) {
+  const int max_gap = static_cast<int>(std::ceil(3.0 / g.dr));
+  std::vector<Track> tracks;
+  std::vector<int> owner(static_cast<size_t>(g.ns) * g.nw, -1);  // track of the previous shell
+  for (int j = g.nr - 1; j >= j_min; --j) {
+    const double rr = g.r(j);
+    std::unordered_map<int, std::vector<int>> next;  // track → its samples on this shell
+    std::unordered_map<int, std::vector<const Blob*>> single;  // track → blobs only it claims
+    for (const Blob& b : blobs[static_cast<size_t>(j)]) {
+      std::vector<int> claim;
+      auto add = [&claim](int t) {
+        if (t >= 0 && std::find(claim.begin(), claim.end(), t) == claim.end()) claim.push_back(t);
+      };
+      for (int p : b.pix) add(owner[p]);
+      // A small knot rising through 5 mm slices moves from one slice to the next between
+      // shells without overlapping itself: failing a direct overlap, one slice above or below
+      // counts.
+      if (claim.empty())
+        for (int p : b.pix) {
+          if (p >= g.nw) add(owner[p - g.nw]);
+          if (p + g.nw < g.ns * g.nw) add(owner[p + g.nw]);
+        }
+      if (claim.empty()) {
+        tracks.push_back({});
+        next[static_cast<int>(tracks.size()) - 1] = b.pix;
+      } else if (claim.size() == 1) {
+        single[claim[0]].push_back(&b);
+      } else {
+        std::vector<std::pair<double, double>> c;
+        for (int t : claim)
+          c.emplace_back(tracks[static_cast<size_t>(t)].w, tracks[static_cast<size_t>(t)].z);
+        auto parts = split_nearest(g, j, b.pix, c);
+        for (size_t n = 0; n < claim.size(); ++n) {
+          auto& v = next[claim[n]];
+          v.insert(v.end(), parts[n].begin(), parts[n].end());
+        }
+      }
+    }
+    for (auto& [t, bl] : single) {
+      // Parts big enough to be a knot of their own, and their centroids.
+      size_t largest = 0;
+      for (const Blob* b : bl) largest = std::max(largest, b->pix.size());
+      std::vector<const Blob*> big;
+      std::vector<std::pair<double, double>> c;
+      for (const Blob* b : bl)
+        if (b->pix.size() * 4 >= largest) {
+          double w = 0, z = 0;
+          centroid(g, j, b->pix, &w, &z);
+          big.push_back(b);
+          c.emplace_back(w, z);
+        }
+      double spread = 0;
+      for (size_t m = 0; m < c.size(); ++m)
+        for (size_t n = m + 1; n < c.size(); ++n)
+          spread = std::max(spread, cyl_dist(rr, c[m].first, c[m].second, c[n].first, c[n].second));
+      if (big.size() < 2 || spread < min_split_mm) {
+        auto& v = next[t];
+        for (const Blob* b : bl) v.insert(v.end(), b->pix.begin(), b->pix.end());
+        continue;
+      }
+      tracks[static_cast<size_t>(t)].split = true;  // ends here: not in `next`
+      std::vector<int> branch;
+      for (size_t n = 0; n < big.size(); ++n) {
+        tracks.push_back({});
+        tracks.back().parent = t;
+        branch.push_back(static_cast<int>(tracks.size()) - 1);
+      }
+      for (const Blob* b : bl) {  // small parts join the nearest branch
+        double w = 0, z = 0;
+        centroid(g, j, b->pix, &w, &z);
+        size_t best = 0;
+        for (size_t n = 1; n < c.size(); ++n)
+          if (cyl_dist(rr, w, z, c[n].first, c[n].second) <
+              cyl_dist(rr, w, z, c[best].first, c[best].second))
+            best = n;
+        auto& v = next[branch[best]];
+        v.insert(v.end(), b->pix.begin(), b->pix.end());
+      }
+    }
+    // A track that finds no blob on this shell keeps its last samples as the overlap target
+    // for up to max_gap shells: small knots dip under the thresholds for a shell or two, and
+    // ending them there would cut one knot into several.
+    auto release = [&](int t) {
+      for (int p : tracks[static_cast<size_t>(t)].pix.back())
+        if (owner[p] == t) owner[p] = -1;
+    };
+    for (size_t t = 0; t < tracks.size(); ++t) {
+      Track& tr = tracks[t];
+      if (!tr.active || tr.shell.empty()) continue;
+      const bool continued = next.count(static_cast<int>(t)) > 0;
+      if (continued || tr.split || ++tr.gap > max_gap) release(static_cast<int>(t));
+      if (!continued && (tr.split || tr.gap > max_gap)) tr.active = false;
+    }
+    for (size_t t = 0; t < tracks.size(); ++t) {
+      auto it = next.find(static_cast<int>(t));
+      if (it == next.end()) continue;
+      Track& tr = tracks[t];
+      tr.gap = 0;
+      tr.shell.push_back(j);
+      tr.pix.push_back(std::move(it->second));
+      centroid(g, j, tr.pix.back(), &tr.w, &tr.z);
+      for (int p : tr.pix.back()) owner[p] = static_cast<int>(t);
+    }
+  }
+  return tracks;
+}
+
+// Shares the shells of each track that branched (two knots touching further out) between its
+// branches, walking outwards from where they part: each sample goes to the branch whose
+// centroid on the previous (inner) shell is nearest. Parents come before their branches in
+// `tracks`, so a branch that branches again passes on what it received.
+void resolve_branches(const Grid& g, std::vector<Track>& tracks) {
+  for (size_t t = 0; t < tracks.size(); ++t) {
+    if (!tracks[t].split) continue;
+    std::vector<size_t> br;
+    for (size_t u = t + 1; u < tracks.size(); ++u)
+      if (tracks[u].parent == static_cast<int>(t) && !tracks[u].shell.empty()) br.push_back(u);
+    Track& parent = tracks[t];
+    if (br.empty()) continue;
+    std::vector<std::pair<double, double>> c;
+    for (size_t u : br) {
+      double w = 0, z = 0;
+      centroid(g, tracks[u].shell.front(), tracks[u].pix.front(), &w, &z);
+      c.emplace_back(w, z);
+    }
+    std::vector<std::vector<int>> shells(br.size());
+    std::vector<std::vector<std::vector<int>>> pix(br.size());
+    for (size_t n = parent.shell.size(); n-- > 0;) {  // inner to outer
+      const int j = parent.shell[n];
+      auto parts = split_nearest(g, j, parent.pix[n], c);
+      for (size_t m = 0; m < br.size(); ++m) {
+        if (parts[m].empty()) continue;
+        centroid(g, j, parts[m], &c[m].first, &c[m].second);
+        shells[m].push_back(j);
+        pix[m].push_back(std::move(parts[m]));
+      }
+    }
+    for (size_t m = 0; m < br.size(); ++m) {  // prepend, outermost first
+      Track& b = tracks[br[m]];
+      b.shell.insert(b.shell.begin(), shells[m].rbegin(), shells[m].rend());
+      b.pix.insert(b.pix.begin(), std::make_move_iterator(pix[m].rbegin()),
+                   std::make_move_iterator(pix[m].rend()));
+    }
+    parent.shell.clear();
+    parent.pix.clear();
+  }
+}
+
+double sq(double x) { return x * x; }
+
+// Measures a segmented knot on shell j. The diameter comes from the cross-section area on the
+// cylinder with partial volume accounted for: slices are 5 mm thick, so a knot of 10 mm spans
+// two or three slices, most of them only partly; each sample counts with the fraction
+// contrast / knot contrast (clamped to [0, 1]) of its r·dω·dz cell, over the blob and the
+// samples of the slices just above and below it. Alternatively (options.diameter_from_arc) the
+// diameter is the widest arc of the blob (samples over half the knot contrast), which ignores z.
+KnotShell measure_shell(const Grid& g, int j, const std::vector<int>& pix,
+                        const std::vector<std::uint8_t>& taken, bool from_arc) {
+  KnotShell s;
+  s.r = g.r(j);
+  s.voxels = static_cast<int>(pix.size());
+  centroid(g, j, pix, &s.omega, &s.z);
+  std::vector<double> c;
+  c.reserve(pix.size());
+  double sum = 0;
+  for (int p : pix) {
+    const double v = g.hu[g.at(p / g.nw, j, p % g.nw)];
+    c.push_back(v);
+    sum += v;
+  }
+  s.contrast = sum / std::max<size_t>(1, pix.size());
+  // The knot's own contrast: a high quantile, the samples fully inside the knot.
+  std::vector<double> cs = c;
+  const size_t q = cs.size() * 9 / 10;
+  std::nth_element(cs.begin(), cs.begin() + q, cs.end());
+  const double full = std::max(1.0, cs[q]);
+  // Core HU: the mean HU of the samples at least half the knot's own contrast (blur and the
+  // slices' partial volume put the rest between knot and wood).
+  double core = 0;
+  int core_n = 0;
+  for (size_t n = 0; n < pix.size(); ++n) {
+    if (c[n] < 0.5 * full) continue;
+    const double h = g.hu_at(pix[n] / g.nw, j, pix[n] % g.nw);
+    if (!std::isnan(h)) core += h, ++core_n;
+  }
+  if (core_n) s.core_hu = core / core_n;
+  const double cell_w = s.r * g.dw;
+  auto dz_of = [&](int i) {
+    const int a = std::max(0, i - 1), b = std::min(g.ns - 1, i + 1);
+    return b > a ? (g.z[static_cast<size_t>(b)] - g.z[static_cast<size_t>(a)]) / (b - a) : 5.0;
+  };
+  if (from_arc) {
+    std::unordered_map<int, int> per_row;
+    for (size_t n = 0; n < pix.size(); ++n)
+      if (c[n] >= 0.5 * full) ++per_row[pix[n] / g.nw];
+    int widest = 0;
+    for (auto& kv : per_row) widest = std::max(widest, kv.second);
+    s.diameter = widest * cell_w;
+  } else {
+    double area = 0;
+    std::vector<std::uint8_t> in(static_cast<size_t>(g.ns) * g.nw, 0);
+    for (int p : pix) in[p] = 1;
+    for (int p : pix) {
+      const int i = p / g.nw, k = p % g.nw;
+      area += std::clamp(g.hu[g.at(i, j, k)] / full, 0.0, 1.0) * cell_w * dz_of(i);
+      for (int di : {-1, 1}) {  // the knot's partial-volume fringe above and below
+        const int ii = i + di;
+        if (ii < 0 || ii >= g.ns) continue;
+        const int qq = ii * g.nw + k;
+        if (in[qq] || taken[qq]) continue;
+        in[qq] = 1;
+        const std::int16_t v = g.hu[g.at(ii, j, k)];
+        if (v != kInvalid) area += std::clamp(v / full, 0.0, 1.0) * cell_w * dz_of(ii);
+      }
+    }
+    s.diameter = 2.0 * std::sqrt(area / (kTwoPi / 2));
+  }
+  // Ring: 1 to 3 mm of arc beyond each side of the blob's rows.
+  std::unordered_map<int, std::pair<int, int>> extent;  // row → (first k, last k), unwrapped
+  const int kc = static_cast<int>(std::lround(s.omega / g.dw));
+  for (int p : pix) {
+    const int i = p / g.nw;
+    int k = p % g.nw;
+    int d = k - kc;
+    d = ((d % g.nw) + g.nw + g.nw / 2) % g.nw - g.nw / 2;
+    auto it = extent.find(i);
+    if (it == extent.end())
+      extent[i] = {d, d};
+    else
+      it->second = {std::min(it->second.first, d), std::max(it->second.second, d)};
+  }
+  const int k1 = std::max(1, static_cast<int>(std::lround(1.0 / cell_w)));
+  const int k3 = std::max(k1 + 1, static_cast<int>(std::lround(3.0 / cell_w)));
+  double rs = 0;
+  int rn = 0;
+  for (auto& [i, e] : extent)
+    for (int side : {-1, 1})
+      for (int d = k1; d <= k3; ++d) {
+        const int k = ((kc + (side < 0 ? e.first - d : e.second + d)) % g.nw + g.nw) % g.nw;
+        const std::int16_t v = g.hu[g.at(i, j, k)];
+        if (v == kInvalid || taken[static_cast<size_t>(i) * g.nw + k]) continue;
+        rs += v, ++rn;
+      }
+  s.ring_hu = rn ? rs / rn : 0;
+  return s;
+}
+
+// True when the blob touches unclassified samples (the heartwood border band, the bark side)
+// along more than a few of its edges: part of the knot's cross-section is missing there, so its
+// centroid and diameter are biased, and the shell is better left to the axis extrapolation.
+bool truncated(const Grid& g, int j, const std::vector<int>& pix) {
+  int cut = 0;
+  for (int p : pix) {
+    const int i = p / g.nw, k = p % g.nw;
+    const int kl = (k + g.nw - 1) % g.nw, kr = (k + 1) % g.nw;
+    cut += g.hu[g.at(i, j, kl)] == kInvalid || g.hu[g.at(i, j, kr)] == kInvalid ||
+           (i > 0 && g.hu[g.at(i - 1, j, k)] == kInvalid) ||
+           (i + 1 < g.ns && g.hu[g.at(i + 1, j, k)] == kInvalid);
+  }
+  return cut * 20 > static_cast<int>(pix.size());
+}
+
+// Least squares of y = Σ c_m·f_m(r) (m < 3) with a tiny ridge so short traces stay defined.
+template <int M>
+std::array<double, M> least_squares(const std::vector<std::array<double, M>>& f,
+                                    const std::vector<double>& y) {
+  std::array<std::array<double, M + 1>, M> a{};
+  for (size_t n = 0; n < y.size(); ++n)
+    for (int p = 0; p < M; ++p) {
+      for (int q = 0; q < M; ++q) a[p][q] += f[n][p] * f[n][q];
+      a[p][M] += f[n][p] * y[n];
+    }
+  for (int p = 0; p < M; ++p) a[p][p] += 1e-6 * (1 + a[p][p]);
+  for (int p = 0; p < M; ++p) {  // Gauss-Jordan with partial pivoting
+    int piv = p;
+    for (int q = p + 1; q < M; ++q)
+      if (std::abs(a[q][p]) > std::abs(a[piv][p])) piv = q;
+    std::swap(a[p], a[piv]);
+    for (int q = 0; q < M; ++q) {
+      if (q == p || a[p][p] == 0) continue;
+      const double m = a[q][p] / a[p][p];
+      for (int c = p; c <= M; ++c) a[q][c] -= m * a[p][c];
+    }
+  }
+  std::array<double, M> x{};
+  for (int p = 0; p < M; ++p) x[p] = a[p][p] != 0 ? a[p][M] / a[p][p] : 0;
+  return x;
+}
+
+// The knot's axis from its segmented shells, in the knot formula's terms: z = c0 + c1·√r + c2·r
+// and ω = d0 + d1·ln r (ω unwrapped around the outermost shell). Short or near-pith-only traces
+// fall back to a straight line in r for z, which extrapolates more safely than the √r term.
+struct Axis {
+  std::array<double, 3> z{};
+  std::array<double, 2> w{};
+  double z_at(double r) const { return z[0] + z[1] * std::sqrt(r) + z[2] * r; }
+  double w_at(double r) const { return wrap_2pi(w[0] + w[1] * std::log(std::max(r, 1.0))); }
+};
+
+Axis fit_axis(const std::vector<KnotShell>& shells) {
+  Axis a;
+  const double w_ref = shells.back().omega;
+  std::vector<std::array<double, 3>> fz;
+  std::vector<std::array<double, 2>> fw;
+  std::vector<double> yz, yw;
+  const double r_in = shells.front().r, r_out = shells.back().r;
+  // Shells near the pith are shared with whorl neighbours: fit on the outer part when long.
+  const double r_from = std::max(r_in, std::min(8.0, r_out - 10.0));
+  const bool sqrt_term = r_out - r_from >= 20.0;
+  for (const KnotShell& s : shells) {
+    if (s.r < r_from) continue;
+    fz.push_back({1.0, sqrt_term ? std::sqrt(s.r) : 0.0, s.r});
+    yz.push_back(s.z);
+    fw.push_back({1.0, std::log(std::max(s.r, 1.0))});
+    yw.push_back(w_ref + angle_diff(s.omega, w_ref));
+  }
+  a.z = least_squares<3>(fz, yz);
+  a.w = least_squares<2>(fw, yw);
+  return a;
+}
+
+// What the knot looks like on shell j around the predicted axis point: mean contrast inside the
+// disc of the knot's diameter on the cylinder, and mean contrast in the 2 mm ring around it.
+// Returns false when the disc has no wood samples (bark side, heartwood border band).
+bool probe(const Grid& g, int j, double w, double z, double d, KnotShell* s) {
+  const double rr = g.r(j), rad = 0.5 * d, ring = rad + 2.0;
+  double in_s = 0, ring_s = 0, core_s = 0;
+  int in_n = 0, ring_n = 0, core_n = 0;
+  const int kc = static_cast<int>(std::lround(w / g.dw));
+  const int kr = static_cast<int>(std::ceil(ring / (rr * g.dw)));
+  for (int i = 0; i < g.ns; ++i) {
+    const double dz = g.z[static_cast<size_t>(i)] - z;
+    if (std::abs(dz) > ring) continue;
+    for (int dk = -kr; dk <= kr; ++dk) {
+      const int k = ((kc + dk) % g.nw + g.nw) % g.nw;
+      const std::int16_t v = g.hu[g.at(i, j, k)];
+      if (v == kInvalid) continue;
+      const double da = rr * angle_diff(k * g.dw, w);
+      const double e = std::sqrt(da * da + dz * dz);
+      if (e <= 0.5 * rad) {
+        const double h = g.hu_at(i, j, k);
+        if (!std::isnan(h)) core_s += h, ++core_n;
+      }
+      if (e <= rad)
+        in_s += v, ++in_n;
+      else if (e <= ring)
+        ring_s += v, ++ring_n;
+    }
+  }
+  if (in_n == 0) return false;
+  s->r = rr;
+  s->omega = wrap_2pi(w);
+  s->z = z;
+  s->diameter = d;
+  s->contrast = in_s / in_n;
+  s->ring_hu = ring_n ? ring_s / ring_n : 0;
+  s->core_hu = core_n ? core_s / core_n : NAN;
+  s->voxels = in_n;
+  s->predicted = true;
+  return true;
+}
+
+// Where the knot's centre is near (w, z) on shell j: the centroid of sign·contrast (sign +1 for
+// a knot brighter than the wood, -1 for a darker one) over the disc of radius `rad`. False when
+// nothing there has that sign.
+bool local_centre(const Grid& g, int j, double w, double z, double rad, double sign, double* wc,
+                  double* zc) {
+  const double rr = g.r(j);
+  const int kc = static_cast<int>(std::lround(w / g.dw));
+  const int kr = static_cast<int>(std::ceil(rad / (rr * g.dw)));
+  double sw = 0, sa = 0, sz = 0;
+  for (int i = 0; i < g.ns; ++i) {
+    const double dz = g.z[static_cast<size_t>(i)] - z;
+    if (std::abs(dz) > rad) continue;
+    for (int dk = -kr; dk <= kr; ++dk) {
+      const int k = ((kc + dk) % g.nw + g.nw) % g.nw;
+      const std::int16_t v = g.hu[g.at(i, j, k)];
+      const double da = rr * dk * g.dw;
+      if (v == kInvalid || da * da + dz * dz > rad * rad) continue;
+      const double wt = std::max(0.0, sign * v);
+      sw += wt, sa += wt * da, sz += wt * dz;
+    }
+  }
+  if (sw <= 0) return false;
+  *wc = wrap_2pi(kc * g.dw + sa / sw / rr);
+  *zc = z + sz / sw;
+  return true;
+}
+
+// Extends a segmented knot outwards along its extrapolated axis until its contrast is gone.
+// Where the knot still shows clearly (mean contrast beyond twice follow_min_contrast) the
+// path is pulled towards the local centroid (a third of the way per shell), so that the
+// extrapolation, fitted on the heartwood part only, does not drift off a long sapwood part.
+// Evidence of the knot on a shell is the mean of it and its two neighbours (noise): brighter
+// than the wood (a sound knot in the sapwood), or darker, or with a dark ring (a dead knot and
+// its encased bark); the knot ends after follow_misses shells without evidence.
+void follow_outwards(const Grid& g, const KnotDetectOptions& o, KnotTrace* t) {
+  const Axis axis = fit_axis(t->shells);
+  // The diameter carried outwards: the mean of the last few segmented shells.
+  double d = 0;
+  int nd = 0;
+  for (size_t n = t->shells.size(); n-- > 0 && nd < 5;) d += t->shells[n].diameter, ++nd;
+  d = std::max(o.min_diameter_mm, d / std::max(1, nd));
+  const int j0 = static_cast<int>(std::lround((t->shells.back().r - g.r0) / g.dr)) + 1;
+  std::vector<KnotShell> probed;
+  int miss = 0, blind = 0;
+  double off_w = 0, off_z = 0;  // pull of the path off the extrapolated axis
+  // Shells without wood samples on the axis: the heartwood border band (4-6 mm) is crossed
+  // blind; more than 8 mm of them is the bark side.
+  const int max_blind = static_cast<int>(std::ceil(8.0 / g.dr));
+  auto evidence = [&](size_t from, size_t to) {  // mean over probed[from, to)
+    double c = 0, ring = 0;
+    for (size_t q = from; q < to; ++q) c += probed[q].contrast, ring += probed[q].ring_hu;
+    c /= static_cast<double>(to - from), ring /= static_cast<double>(to - from);
+    return std::abs(c) >= o.follow_min_contrast || ring <= -2 * o.follow_min_contrast;
+  };
+  for (int j = j0; j < g.nr; ++j) {
+    KnotShell s;
+    const double rr = g.r(j);
+    const double w = wrap_2pi(axis.w_at(rr) + off_w), z = axis.z_at(rr) + off_z;
+    if (!probe(g, j, w, z, d, &s)) {
+      if (++blind > max_blind) break;
+      continue;
+    }
+    blind = 0;
+    probed.push_back(s);
+    if (std::abs(s.contrast) >= 2 * o.follow_min_contrast) {
+      double wc = 0, zc = 0;
+      if (local_centre(g, j, w, z, 0.5 * d + 2.0, s.contrast > 0 ? 1.0 : -1.0, &wc, &zc)) {
+        off_w += angle_diff(wc, w) / 3;
+        off_z += (zc - z) / 3;
+      }
+    }
+    const size_t n = probed.size();
+    miss = evidence(n >= 3 ? n - 3 : 0, n) ? 0 : miss + 1;
+    if (miss > o.follow_misses) break;
+  }
+  // Keep the probed shells up to the last one with evidence, now with centred means (the
+  // trailing mean used for stopping lags by a shell).
+  size_t keep = 0;
+  for (size_t n = 0; n < probed.size(); ++n)
+    if (evidence(n > 0 ? n - 1 : 0, std::min(probed.size(), n + 2))) keep = n + 1;
+  for (size_t n = 0; n < keep; ++n) t->shells.push_back(probed[n]);
+}
+
+// Joins traces that are pieces of one knot: a knot whose contrast dips for more than the
+// tracking gap (a small knot straddling two slices) is segmented as an inner and an outer piece,
+// and the inner piece's followed part runs over the outer piece. Two traces are one knot when
+// they share at least three shells and their centres there are, on average, within a third of
+// the knot's diameter (whorl neighbours that meet near the pith diverge quickly, and so fail).
+// The joined trace keeps, per shell, the segmented measurement over a predicted one.
+std::vector<KnotTrace> merge_pieces(std::vector<KnotTrace> traces) {
+  std::sort(traces.begin(), traces.end(), [](const KnotTrace& a, const KnotTrace& b) {
+    return a.shells.front().r < b.shells.front().r;
+  });
+  std::vector<KnotTrace> out;
+  for (KnotTrace& b : traces) {
+    KnotTrace* into = nullptr;
+    for (KnotTrace& a : out) {
+      double sum = 0, dsum = 0;
+      int n = 0;
+      for (const KnotShell& sb : b.shells)
+        for (const KnotShell& sa : a.shells)
+          if (std::abs(sa.r - sb.r) < 0.25) {
+            sum += cyl_dist(sa.r, sa.omega, sa.z, sb.omega, sb.z);
+            dsum += std::max(sa.diameter, sb.diameter);
+            ++n;
+          }
+      if (n >= 3 && sum < dsum / 3) {
+        into = &a;
+        break;
+      }
+    }
+    if (!into) {
+      out.push_back(std::move(b));
+      continue;
+    }
+    std::vector<KnotShell> all = into->shells;
+    all.insert(all.end(), b.shells.begin(), b.shells.end());
+    std::stable_sort(all.begin(), all.end(), [](const KnotShell& x, const KnotShell& y) {
+      return x.r < y.r || (x.r == y.r && !x.predicted && y.predicted);
+    });
+    into->shells.clear();
+    for (const KnotShell& sh : all)
+      if (into->shells.empty() || std::abs(into->shells.back().r - sh.r) >= 0.25)
+        into->shells.push_back(sh);
+    into->r_last_seen = into->shells.back().r;
+    into->reaches_surface = into->reaches_surface || b.reaches_surface;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
+                                    const KnotDetectOptions& options, KnotDetectSummary* summary) {
+  KnotDetectSummary sum;
+  using Clock = std::chrono::steady_clock;
+  const auto t_start = Clock::now();
+  auto t_prev = t_start;
+  auto lap = [&t_prev]() {
+    const auto now = Clock::now();
+    const double s = std::chrono::duration<double>(now - t_prev).count();
+    t_prev = now;
+    return s;
+  };
+  const int threads = options.threads > 0
+                          ? options.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  if (volume.slice_count() < 2 || stem.slice_count() == 0) return {};
+  Grid g = unroll(volume, stem, options, threads);
+  if (!stem.has_heartwood()) estimate_heartwood(g, threads);
+  sum.unroll_s = lap();
+  to_contrast(g, threads, options.level_half_window);
+  sum.contrast_s = lap();
+  sum.shells = g.nr, sum.slices = g.ns, sum.omegas = g.nw;
+
+  double dz = 5.0;
+  if (g.ns >= 2) dz = (g.z.back() - g.z.front()) / (g.ns - 1);
+  const double min_area = 0.25 * (kTwoPi / 8) * sq(options.min_diameter_mm);
+  std::vector<std::vector<Blob>> blobs(static_cast<size_t>(g.nr));
+  const int j_min = std::max(0, static_cast<int>(std::ceil((options.min_r_mm - g.r0) / g.dr)));
+  parallel_for(g.nr - j_min, threads, [&](int n) {
+    const int j = j_min + n;
+    blobs[static_cast<size_t>(j)] =
+        label_shell(g, j, options.low_contrast, options.high_contrast, min_area, dz);
+  });
+  sum.segment_s = lap();
+  for (const auto& b : blobs) sum.blobs += static_cast<int>(b.size());
+  std::vector<Track> tracks = track_inwards(g, blobs, j_min, options.min_split_mm);
+  resolve_branches(g, tracks);
+  sum.tracks = static_cast<int>(tracks.size());
+  sum.track_s = lap();
+
+  std::vector<KnotTrace> out;
+  // All segmented samples of a shell, so that a knot's ring and fringe skip its neighbours'.
+  std::vector<std::vector<std::uint8_t>> taken(static_cast<size_t>(g.nr));
+  for (const Track& t : tracks)
+    for (size_t n = 0; n < t.shell.size(); ++n) {
+      auto& m = taken[static_cast<size_t>(t.shell[n])];
+      if (m.empty()) m.assign(static_cast<size_t>(g.ns) * g.nw, 0);
+      for (int p : t.pix[n]) m[static_cast<size_t>(p)] = 1;
+    }
+  for (const Track& t : tracks) {
+    if (t.shell.empty()) continue;
+    const double span = (t.shell.front() - t.shell.back()) * g.dr;
+    if (span < options.min_length_mm) continue;
+    KnotTrace kt;
+    for (size_t n = t.shell.size(); n-- > 0;)
+      if (!truncated(g, t.shell[n], t.pix[n]))
+        kt.shells.push_back(measure_shell(g, t.shell[n], t.pix[n],
+                                          taken[static_cast<size_t>(t.shell[n])],
+                                          options.diameter_from_arc));
+    if (kt.shells.size() < 2) continue;
+    double dmax = 0;
+    for (const KnotShell& s : kt.shells) dmax = std::max(dmax, s.diameter);
+    if (dmax < options.min_diameter_mm) continue;
+    follow_outwards(g, options, &kt);
+    const KnotShell& last = kt.shells.back();
+    kt.r_last_seen = last.r;
+    kt.reaches_surface = last.r >= stem.radius_at(last.omega, last.z) - options.surface_mm;
+    out.push_back(std::move(kt));
+  }
+  out = merge_pieces(std::move(out));
+  // Deterministic order: by height at the innermost shell, then azimuth.
+  std::sort(out.begin(), out.end(), [](const KnotTrace& a, const KnotTrace& b) {
+    if (a.shells.front().z != b.shells.front().z) return a.shells.front().z < b.shells.front().z;
+    return a.shells.front().omega < b.shells.front().omega;
+  });
+  sum.follow_s = lap();
+  sum.traces = static_cast<int>(out.size());
+  sum.total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+  if (summary) *summary = sum;
+  return out;
+}
+
+}  // namespace sawyer::ct

@@ -1,0 +1,68 @@
+// The knot pass: detect, fit in parallel, number (see knot_scan.h).
+#include "sawyer/ct/knot_scan.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <numeric>
+#include <thread>
+
+namespace sawyer::ct {
+
+Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
+                            const KnotScanOptions& options) {
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  KnotScan out;
+  if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");
+  int threads = options.threads > 0 ? options.threads
+                                    : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, 16);
+  KnotDetectOptions detect = options.detect;
+  if (detect.threads <= 0) detect.threads = threads;
+  std::vector<KnotTrace> traces = detect_knots(volume, stem, detect);
+  out.traces_found = static_cast<int>(traces.size());
+  const auto t1 = clock::now();
+
+  // Fits are independent: threads take traces in turn.
+  std::vector<Result<KnotFitReport>> fits(traces.size(), Error("not fitted"));
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i = next++; i < traces.size(); i = next++) fits[i] = fit_knot(traces[i], options.fit);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  const auto t2 = clock::now();
+
+  std::vector<size_t> kept;
+  for (size_t i = 0; i < traces.size(); ++i) {
+    if (!fits[i].ok()) {
+      out.rejected.push_back(fits[i].error().message());
+      continue;
+    }
+    if (fits[i].value().knot.max_diameter() < options.min_diameter_mm) {
+      out.rejected.push_back("knot thinner than the minimum diameter");
+      continue;
+    }
+    kept.push_back(i);
+  }
+  std::sort(kept.begin(), kept.end(), [&](size_t a, size_t b) {
+    return fits[a].value().knot.z0 < fits[b].value().knot.z0;
+  });
+  int id = 1;
+  for (size_t i : kept) {
+    KnotFitReport f = fits[i].value();
+    f.knot.id = id++;
+    out.knots.push_back(f.knot);
+    out.fits.push_back(std::move(f));
+    out.traces.push_back(std::move(traces[i]));
+  }
+  out.seconds_detect = std::chrono::duration<double>(t1 - t0).count();
+  out.seconds_fit = std::chrono::duration<double>(t2 - t1).count();
+  out.seconds = std::chrono::duration<double>(clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace sawyer::ct
