@@ -7,8 +7,9 @@
 // condition ("clean": 512 x 512, 0.8 mm, 5 mm slices, 20 HU noise, the scanner bed; "hard":
 // twice the noise) it renders N slices around F of the log's length in memory, runs the stem
 // pass (which keeps the log's voxels) and the knot pass, and matches the knots found to the
-// phantom's true knots: a pair has its azimuth within 15° and its height within 15 mm at
-// r = min(50 mm, r_end of the true knot), nearest first. True knots count when they lie whole
+// phantom's true knots (ct_pipeline/knots/include/sawyer/ct/knot_match.h): a pair has its
+// azimuth within 15° and its height within 15 mm at r = min(50 mm, both knots' r_end), nearest
+// first. True knots count when they lie whole
 // inside the section (5 mm from its ends) and, for recall, are at least 10 mm thick; a found
 // knot is spurious when it matches no true knot at all. Errors on the pairs: azimuth and height
 // at r = 50 mm (median), diameter RMSE over the common length (every 2 mm), r_dead (knots with

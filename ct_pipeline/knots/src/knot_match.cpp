@@ -18,6 +18,10 @@ double angle_diff(double a, double b) {
 // Evaluation radius of a true knot: 50 mm, or its end when it is shorter.
 double eval_r(const Knot& t) { return std::min(50.0, std::max(5.0, t.r_end)); }
 
+// Where a pair is compared: the evaluation radius, or the found knot's end when it ends sooner
+// (its axis beyond is an extrapolation; r_end's error is reported on its own).
+double pair_r(const Knot& t, const Knot& f) { return std::min(eval_r(t), std::max(5.0, f.r_end)); }
+
 std::string describe(const char* what, const Knot& k) {
   const double r = eval_r(k);
   char line[200];
@@ -49,8 +53,8 @@ KnotMatch match_knots(const std::vector<Knot>& found, const std::vector<Knot>& t
   };
   std::vector<Pair> pairs;
   for (size_t t = 0; t < truth.size(); ++t) {
-    const double r = eval_r(truth[t]);
     for (size_t f = 0; f < found.size(); ++f) {
+      const double r = pair_r(truth[t], found[f]);
       const double dw = std::abs(angle_diff(found[f].azimuth_at(r), truth[t].azimuth_at(r)));
       const double dz = std::abs(found[f].height_at(r) - truth[t].height_at(r));
       if (dw > o.max_azimuth_rad || dz > o.max_height_mm) continue;
@@ -77,7 +81,7 @@ KnotMatch match_knots(const std::vector<Knot>& found, const std::vector<Knot>& t
     if (!inside) continue;
     m.truth_found += counted;
     const Knot& f = found[static_cast<size_t>(of_truth[t])];
-    const double r = eval_r(k);
+    const double r = pair_r(k, f);
     m.azimuth_deg.push_back(std::abs(angle_diff(f.azimuth_at(r), k.azimuth_at(r))) * 180 / kPi);
     m.height_mm.push_back(std::abs(f.height_at(r) - k.height_at(r)));
     const double outer = truth_stem.slice_count()

@@ -3,11 +3,15 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <numeric>
 #include <thread>
 
 namespace sawyer::ct {
+namespace {
+constexpr double kMinCommonMm = 10.0;
+}  // namespace
 
 Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
                             const KnotScanOptions& options) {
@@ -48,6 +52,41 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
     }
     kept.push_back(i);
   }
+  // A small knot that rises through the slices can be segmented as several parallel traces, one
+  // per slice it steps into, each then fitted on its own: the same knot found twice. Two fitted
+  // knots whose axes stay closer than a slice spacing plus half the larger diameter over at least
+  // kMinCommonMm of common length are one; the better supported stays.
+  const double dz = volume.geometry().slice_spacing() > 0 ? volume.geometry().slice_spacing() : 1.0;
+  std::sort(kept.begin(), kept.end(), [&](size_t a, size_t b) {
+    return fits[a].value().knot.support > fits[b].value().knot.support;
+  });
+  std::vector<size_t> unique;
+  for (size_t i : kept) {
+    const Knot& k = fits[i].value().knot;
+    bool same = false;
+    for (size_t u : unique) {
+      const Knot& q = fits[u].value().knot;
+      const double r0 = std::max(traces[i].shells.front().r, traces[u].shells.front().r);
+      const double r1 = std::min(k.r_end, q.r_end);
+      if (r1 - r0 < kMinCommonMm) continue;
+      double sum = 0;
+      int n = 0;
+      for (double r = r0; r <= r1; r += 2.0, ++n) {
+        double dw = std::remainder(k.azimuth_at(r) - q.azimuth_at(r), kTwoPi);
+        sum += std::hypot(k.height_at(r) - q.height_at(r), r * dw);
+      }
+      if (sum / n < dz + 0.5 * std::max(k.max_diameter(), q.max_diameter())) {
+        same = true;
+        break;
+      }
+    }
+    if (same) {
+      ++out.duplicates;
+      continue;
+    }
+    unique.push_back(i);
+  }
+  kept = std::move(unique);
   std::sort(kept.begin(), kept.end(), [&](size_t a, size_t b) {
     return fits[a].value().knot.z0 < fits[b].value().knot.z0;
   });

@@ -33,6 +33,7 @@ struct KnotScan {
   std::vector<KnotTrace> traces;      // the evidence of each kept knot, same order
   std::vector<KnotFitReport> fits;    // same order
   int traces_found = 0;               // detected before fitting
+  int duplicates = 0;                 // fitted knots dropped as another's double (knot_scan.cpp)
   std::vector<std::string> rejected;  // traces not fitted, why (one line each)
   double seconds_detect = 0, seconds_fit = 0, seconds = 0;
 };
