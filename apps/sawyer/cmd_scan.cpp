@@ -112,46 +112,51 @@ cv::Mat pith_plot(const ct::StemScan& scan) {
   return img;
 }
 
-// The log's cylinder of pith distance r unrolled: azimuth 0..2π left to right (0.5° per
-// pixel), height down the image (one row per slice, stretched to at least 2 pixels per 5 mm),
-// HU windowed -700..+200 so knots stand out of the dry heartwood. Each fitted knot crossing the
-// cylinder is drawn where its formula puts it, a circle of its fitted diameter (red: dead
-// there, green: sound) with its id.
+// The log's cylinder of pith distance r unrolled: azimuth 0..2π left to right, height down the
+// image, both at the same scale (2 px/mm for a short scan, down to 0.5 px/mm for a long one, so
+// knots keep their shape), HU windowed -700..+200 so knots stand out of the dry heartwood; rows
+// between two slices take the nearer slice. Each fitted knot crossing the cylinder is drawn
+// where its formula puts it, a circle of its fitted diameter (red: dead there, green: sound)
+// with its id.
 cv::Mat unrolled_image(const ct::LogVolume& vol, const Stem& stem, const std::vector<Knot>& knots,
                        double r) {
   const int n = vol.slice_count();
-  const int w = 720;
-  const double dz = vol.geometry().slice_spacing() > 0 ? vol.geometry().slice_spacing() : 1.0;
-  const int rows_per = std::max(1, static_cast<int>(std::lround(2.0 * dz / 5.0)));
-  const double px_per_mm_z = rows_per / dz, px_per_rad = w / kTwoPi;
-  cv::Mat grey(std::max(1, n * rows_per), w, CV_8UC1, cv::Scalar(0));
-  for (int i = 0; i < n; ++i) {
-    const double z = vol.geometry().z[static_cast<size_t>(i)];
-    if (z < stem.z_begin() || z > stem.z_end()) continue;
-    const Vec2 c = stem.pith_at(z);
+  const std::vector<double>& zs = vol.geometry().z;
+  const double z_first = n ? zs.front() : 0.0, extent = n ? zs.back() - zs.front() : 0.0;
+  const double scale = std::clamp(2000.0 / std::max(extent, 1.0), 0.5, 2.0);  // px per mm
+  const int w = std::max(16, static_cast<int>(std::lround(kTwoPi * r * scale)));
+  const int h = std::max(1, static_cast<int>(std::lround(extent * scale)) + 1);
+  cv::Mat grey(h, w, CV_8UC1, cv::Scalar(0));
+  for (int row = 0; row < h; ++row) {
+    const double z = z_first + row / scale;
+    const auto it = std::lower_bound(zs.begin(), zs.end(), z);
+    int i = static_cast<int>(it - zs.begin());
+    if (i >= n || (i > 0 && z - zs[static_cast<size_t>(i - 1)] < zs[static_cast<size_t>(i)] - z)) --i;
+    const double zi = zs[static_cast<size_t>(i)];
+    if (zi < stem.z_begin() || zi > stem.z_end()) continue;
+    const Vec2 c = stem.pith_at(zi);
     for (int k = 0; k < w; ++k) {
       const double om = kTwoPi * (k + 0.5) / w;
       const double v = vol.at(i, c.x + r * std::cos(om), c.y + r * std::sin(om));
-      const auto g = static_cast<unsigned char>(std::clamp((v + 700.0) / 900.0 * 255.0, 0.0, 255.0));
-      for (int q = 0; q < rows_per; ++q) grey.at<unsigned char>(i * rows_per + q, k) = g;
+      grey.at<unsigned char>(row, k) =
+          static_cast<unsigned char>(std::clamp((v + 700.0) / 900.0 * 255.0, 0.0, 255.0));
     }
   }
   cv::Mat img;
   cv::cvtColor(grey, img, cv::COLOR_GRAY2BGR);
-  const double z_first = n ? vol.geometry().z.front() : 0.0;
   for (const Knot& k : knots) {
     if (r > k.r_end) continue;
-    const cv::Point at(static_cast<int>(k.azimuth_at(r) * px_per_rad),
-                       static_cast<int>((k.height_at(r) - z_first) * px_per_mm_z + 0.5 * rows_per));
-    const int rad = std::max(2, static_cast<int>(0.5 * k.diameter_at(r) * px_per_mm_z));
+    const cv::Point at(static_cast<int>(k.azimuth_at(r) / kTwoPi * w),
+                       static_cast<int>((k.height_at(r) - z_first) * scale));
+    const int rad = std::max(2, static_cast<int>(0.5 * k.diameter_at(r) * scale));
     const cv::Scalar colour = k.dead_at(r) ? cv::Scalar(0, 0, 255) : cv::Scalar(0, 200, 0);
     cv::circle(img, at, rad, colour, 1, cv::LINE_AA);
     cv::putText(img, std::to_string(k.id), at + cv::Point(rad + 2, 4), cv::FONT_HERSHEY_SIMPLEX,
                 0.35, colour, 1, cv::LINE_AA);
   }
   char text[64];
-  std::snprintf(text, sizeof text, "r = %.0f mm, azimuth 0..360 deg", r);
-  cv::putText(img, text, {6, 14}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 0), 1,
+  std::snprintf(text, sizeof text, "r = %.0f mm", r);
+  cv::putText(img, text, {4, 14}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 0), 1,
               cv::LINE_AA);
   return img;
 }
