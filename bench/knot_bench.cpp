@@ -14,7 +14,8 @@
 // knot is spurious when it matches no true knot at all. Errors on the pairs: azimuth and height
 // at r = 50 mm (median), diameter RMSE over the common length (every 2 mm), r_dead (knots with
 // a dead part in the truth) and r_end (median); r_end of a knot that reaches the bark is
-// compared with the outer radius there. --list 1 prints the missed and the spurious knots.
+// compared with the outer radius there. --list 1 prints the missed and the spurious knots,
+// --list 2 also every pair (true and found diameter profile, r_dead, r_end).
 // --speed 1 times the whole pass on the whole gran1 log (rendering excluded).
 #include <algorithm>
 #include <chrono>
@@ -40,6 +41,7 @@ using namespace sawyer::ct;
 namespace {
 
 bool list_knots = false;
+bool list_pairs = false;  // --list 2: every pair too
 
 struct Row {
   std::string log, condition;
@@ -97,6 +99,8 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, std::u
   if (list_knots) {
     for (const std::string& l : m.missed) std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
     for (const std::string& l : m.spurious_list) std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
+    if (list_pairs)
+      for (const std::string& l : m.pairs) std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
   }
   return row;
 }
@@ -166,7 +170,10 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[a], "--seed")) seed = std::strtoull(argv[a + 1], nullptr, 10);
     else if (!std::strcmp(argv[a], "--at")) at = std::atof(argv[a + 1]);
     else if (!std::strcmp(argv[a], "--speed")) speed = std::atoi(argv[a + 1]) != 0;
-    else if (!std::strcmp(argv[a], "--list")) list_knots = std::atoi(argv[a + 1]) != 0;
+    else if (!std::strcmp(argv[a], "--list")) {
+      list_knots = std::atoi(argv[a + 1]) != 0;
+      list_pairs = std::atoi(argv[a + 1]) >= 2;
+    }
     else {
       std::fprintf(stderr, "knot_bench: unknown option %s\n", argv[a]);
       return 2;

@@ -61,7 +61,7 @@ TEST(KnotScan, CommandLineScanFindsThePhantomsKnots) {
   EXPECT_GE(m.precision(), 0.85);
   EXPECT_LE(median_of(m.azimuth_deg), 4.0);
   EXPECT_LE(median_of(m.height_mm), 4.0);
-  EXPECT_LE(m.diameter_rmse(), 4.0);
+  EXPECT_LE(m.diameter_rmse(), 2.5);
   EXPECT_LE(median_of(m.r_end_mm), 10.0);
   ASSERT_GE(m.r_dead_mm.size(), 3u) << "the whorls' knots died inside the log";
   EXPECT_LE(median_of(m.r_dead_mm), 10.0);

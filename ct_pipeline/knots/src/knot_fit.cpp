@@ -526,6 +526,11 @@ Result<KnotFitReport> fit_knot(const KnotTrace& trace, const KnotFitOptions& opt
   if (!axis) return axis.error();
   const double r_dead_density =
       options.use_density ? r_dead_from_density(shells, r_end) : std::nan("");
+  // A dead knot's outline includes the bark encased around it, darker than the wood, which the
+  // detector's diameter (the dense part) leaves out: beyond r_dead the shells are widened by it.
+  if (!std::isnan(r_dead_density) && r_dead_density < r_end && options.encased_bark_mm > 0)
+    for (Shell& s : shells)
+      if (s.r > r_dead_density && s.d > kMinDiameter) s.d += 2.0 * options.encased_bark_mm;
   Result<DiameterFit> diam = fit_diameter(shells, r_end, r_dead_density, options);
   if (!diam) return diam.error();
 

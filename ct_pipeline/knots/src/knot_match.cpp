@@ -90,11 +90,22 @@ KnotMatch match_knots(const std::vector<Knot>& found, const std::vector<Knot>& t
     const double true_end = std::min(k.r_end, outer);
     m.r_end_mm.push_back(std::abs(f.r_end - true_end));
     if (k.r_dead < true_end) m.r_dead_mm.push_back(std::abs(std::min(f.r_dead, f.r_end) - k.r_dead));
+    double pair2 = 0;
+    int pair_n = 0;
     for (double q = 5.0; q <= std::min(f.r_end, true_end); q += 2.0) {
       const double e = f.diameter_at(q) - k.diameter_at(q);
       m.diameter_sum2 += e * e;
       ++m.diameter_count;
+      pair2 += e * e, ++pair_n;
     }
+    char line[240];
+    std::snprintf(line, sizeof line,
+                  "true knot %d ~ found %d: d_dead %.1f ~ %.1f mm, exponent %.2f ~ %.2f, r_dead %.0f ~ "
+                  "%.0f mm, r_end %.0f ~ %.0f mm, diameter RMSE %.2f mm",
+                  k.id, f.id, k.diameter.d_dead, f.diameter.d_dead, k.diameter.exponent,
+                  f.diameter.exponent, k.r_dead, f.r_dead, true_end, f.r_end,
+                  pair_n ? std::sqrt(pair2 / pair_n) : 0.0);
+    m.pairs.push_back(line);
   }
   for (size_t f = 0; f < found.size(); ++f)
     if (of_found[f] < 0) {

@@ -50,6 +50,10 @@ struct KnotFitOptions {
   // knot it grew from) where the trace has enough of it; the diameter's kink and the dark rings
   // decide only where it does not. false: always from the diameters.
   bool use_density = true;
+  // Thickness (mm) of the bark encased around a dead knot, part of its outline but not of the
+  // dense core the detector measures: added on both sides to the diameters beyond an r_dead
+  // found from the density. 0: diameters as measured.
+  double encased_bark_mm = 1.0;
 };
 
 struct KnotFitReport {

@@ -33,6 +33,7 @@ struct KnotMatch {
   double diameter_sum2 = 0;          // squared diameter errors every 2 mm over the common length
   long diameter_count = 0;
   std::vector<std::string> missed, spurious_list;  // one line each
+  std::vector<std::string> pairs;  // each pair's diameters, r_dead and r_end, true and found
   double recall() const { return truth_counted ? double(truth_found) / truth_counted : 1.0; }
   double precision() const { return found ? double(found - spurious) / found : 1.0; }
   double diameter_rmse() const;
