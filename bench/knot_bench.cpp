@@ -115,7 +115,7 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, std::u
   return row;
 }
 
-double thread_cpu() {
+double process_cpu_seconds() {
   timespec t{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
@@ -139,14 +139,14 @@ void time_whole_log(const LogModel& log) {
     StemScanOptions so;
     so.volume = &vol;
     so.threads = 2;
-    const double c0 = thread_cpu();
+    const double c0 = process_cpu_seconds();
     auto stem = scan_stem(src, so);
     if (!stem) return;
     KnotScanOptions ko;
     ko.threads = 2;
     auto k = scan_knots(vol, stem.value().stem, ko);
     if (!k) return;
-    const double c1 = thread_cpu();
+    const double c1 = process_cpu_seconds();
     const KnotScan& s = k.value();
     if (s.seconds < best_total) {
       best_total = s.seconds, best_detect = s.seconds_detect, best_fit = s.seconds_fit;

@@ -17,19 +17,12 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string quoted(const fs::path& p) {
-  std::string q = "\"";
-  q += p.string();
-  q += '"';
-  return q;
-}
-
 int lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
 
 TEST(Cli, InfoOnTheBundledSpruceLogPrintsItsFigures) {
   std::string out;
   const fs::path log = test::sample_log("gran1_spruce") / "log.json";
-  ASSERT_EQ(test::run_sawyer("info " + quoted(log), &out), 0) << out;
+  ASSERT_EQ(test::run_sawyer("info " + test::quoted(log), &out), 0) << out;
   EXPECT_THAT(out, HasSubstr("log gran1_spruce  species spruce"));
   EXPECT_THAT(out, HasSubstr("4.000 m  (400 samples of 10.0 mm)"));
   EXPECT_THAT(out, HasSubstr("104.06 .. 143.38 mm"));
@@ -54,23 +47,25 @@ TEST(Cli, BundledSpruceLogJsonMatchesAFreshImport) {
 
 TEST(Cli, InfoReadsTheStemBankFolderToo) {
   std::string a, b;
-  ASSERT_EQ(test::run_sawyer("info " + quoted(test::gran1_source_dir()), &a), 0) << a;
-  ASSERT_EQ(test::run_sawyer("info " + quoted(test::sample_log("gran1_spruce") / "log.json"), &b),
-            0);
+  ASSERT_EQ(test::run_sawyer("info " + test::quoted(test::gran1_source_dir()), &a), 0) << a;
+  ASSERT_EQ(
+      test::run_sawyer("info " + test::quoted(test::sample_log("gran1_spruce") / "log.json"), &b),
+      0);
   EXPECT_EQ(a, b);
 }
 
 TEST(Cli, ConvertToLogJsonRoundTrips) {
   test::TempDir dir;
   std::string out;
-  ASSERT_EQ(test::run_sawyer("convert " + quoted(test::gran1_source_dir()) + " -o " +
-                                 quoted(dir / "a.json"),
+  ASSERT_EQ(test::run_sawyer("convert " + test::quoted(test::gran1_source_dir()) + " -o " +
+                                 test::quoted(dir / "a.json"),
                              &out),
             0)
       << out;
-  ASSERT_EQ(test::run_sawyer("convert " + quoted(dir / "a.json") + " -o " + quoted(dir / "b.json"),
-                             &out),
-            0)
+  ASSERT_EQ(
+      test::run_sawyer(
+          "convert " + test::quoted(dir / "a.json") + " -o " + test::quoted(dir / "b.json"), &out),
+      0)
       << out;
   Result<std::string> a = read_text_file(dir / "a.json");
   Result<std::string> b = read_text_file(dir / "b.json");
@@ -83,7 +78,7 @@ TEST(Cli, MalformedLogGivesOneLineNamingFileAndKeyAndFails) {
   const fs::path bad = dir / "bad.json";
   test::write_file(bad, R"({"format": "sawyer-log/1", "stem": {"z0_mm": 0, "pith": []}})");
   std::string out;
-  EXPECT_NE(test::run_sawyer("info " + quoted(bad), &out), 0);
+  EXPECT_NE(test::run_sawyer("info " + test::quoted(bad), &out), 0);
   EXPECT_EQ(lines(out), 1) << out;
   EXPECT_THAT(out, HasSubstr(bad.string()));
   EXPECT_THAT(out, HasSubstr("stem.dz_mm: missing key"));
@@ -94,7 +89,8 @@ TEST(Cli, ConvertOfBadInputWritesNothing) {
   const fs::path bad = dir / "bad.json";
   test::write_file(bad, "{ not json");
   std::string out;
-  EXPECT_NE(test::run_sawyer("convert " + quoted(bad) + " -o " + quoted(dir / "out.json"), &out),
+  EXPECT_NE(test::run_sawyer(
+                "convert " + test::quoted(bad) + " -o " + test::quoted(dir / "out.json"), &out),
             0);
   EXPECT_EQ(lines(out), 1) << out;
   EXPECT_FALSE(fs::exists(dir / "out.json"));
@@ -103,12 +99,12 @@ TEST(Cli, ConvertOfBadInputWritesNothing) {
 TEST(Cli, UnknownInputIsNamed) {
   test::TempDir dir;
   std::string out;
-  EXPECT_NE(test::run_sawyer("info " + quoted(dir / "missing"), &out), 0);
+  EXPECT_NE(test::run_sawyer("info " + test::quoted(dir / "missing"), &out), 0);
   EXPECT_THAT(out, HasSubstr((dir / "missing").string() + ": no such file or folder"));
-  EXPECT_NE(test::run_sawyer("info " + quoted(dir.path()), &out), 0);
+  EXPECT_NE(test::run_sawyer("info " + test::quoted(dir.path()), &out), 0);
   EXPECT_THAT(out, HasSubstr("the folder is empty; nor a log model (log.json"));
   test::write_file(dir / "notes.txt", "log 42");
-  EXPECT_NE(test::run_sawyer("info " + quoted(dir.path()), &out), 0);
+  EXPECT_NE(test::run_sawyer("info " + test::quoted(dir.path()), &out), 0);
   EXPECT_THAT(out, HasSubstr("no CT slices found among 1 files"));
   EXPECT_THAT(out, HasSubstr("nor a log model"));
 }

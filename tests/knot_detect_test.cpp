@@ -24,14 +24,6 @@
 namespace sawyer::ct {
 namespace {
 
-constexpr double kPi = 3.14159265358979;
-
-LogModel load(const std::string& name) {
-  auto log = read_log_json(test::sample_log(name) / "log.json");
-  EXPECT_TRUE(log.ok()) << (log.ok() ? "" : log.error().message());
-  return log.ok() ? log.value() : LogModel{};
-}
-
 PhantomOptions section_options(double from_mm, double to_mm) {
   PhantomOptions o;
   o.image_size = 512;
@@ -68,13 +60,6 @@ Scene detect(const LogModel& log, const PhantomOptions& po, const KnotDetectOpti
   s.traces = detect_knots(s.volume, s.truth.stem, ko);
   s.detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
-}
-
-double angle_diff(double a, double b) {
-  double d = std::fmod(a - b, 2 * kPi);
-  if (d > kPi) d -= 2 * kPi;
-  if (d <= -kPi) d += 2 * kPi;
-  return d;
 }
 
 // The trace's shell nearest to pith distance r.
@@ -197,7 +182,7 @@ Score score(const Scene& s, const char* label) {
 // A pine whorl (5 knots of 13-15 mm starting at 1293-1313 mm in the log) and the clear wood
 // around it, at the default noise.
 TEST(KnotDetect, Pine8WhorlAllKnotsFound) {
-  const LogModel log = load("pine_8");
+  const LogModel log = test::sample_model("pine_8");
   const Scene s = detect(log, section_options(1250, 1450));
   ASSERT_EQ(s.volume.slice_count(), 41);
   const Score sc = score(s, "pine_8 1250-1450 area diameters");
@@ -224,7 +209,7 @@ TEST(KnotDetect, Pine8WhorlAllKnotsFound) {
 TEST(KnotDetect, Pine8WhorlDoubledNoise) {
   PhantomOptions o = section_options(1250, 1450);
   o.noise_hu = 40;
-  const Scene s = detect(load("pine_8"), o);
+  const Scene s = detect(test::sample_model("pine_8"), o);
   const Score sc = score(s, "pine_8 1250-1450 noise 40");
   EXPECT_EQ(sc.found, sc.truth);
   EXPECT_LE(sc.spurious, 3);
@@ -234,7 +219,7 @@ TEST(KnotDetect, Pine8WhorlDoubledNoise) {
 // then the same volume with a stem that carries no heartwood radius, so that the detector
 // estimates the border itself.
 TEST(KnotDetect, Gran1SpruceScatteredKnots) {
-  Scene s = detect(load("gran1_spruce"), section_options(1000, 1250));
+  Scene s = detect(test::sample_model("gran1_spruce"), section_options(1000, 1250));
   const Score sc = score(s, "gran1_spruce 1000-1250");
   EXPECT_GE(sc.truth, 3);
   EXPECT_GE(sc.found, sc.truth - 1);
@@ -250,7 +235,7 @@ TEST(KnotDetect, Gran1SpruceScatteredKnots) {
 // The stem from the real stem pass (scan_stem: measured pith, outline and heartwood border)
 // instead of the truth.
 TEST(KnotDetect, Pine8WhorlWithScannedStem) {
-  const LogModel log = load("pine_8");
+  const LogModel log = test::sample_model("pine_8");
   Scene s;
   auto ph = Phantom::create(log, section_options(1250, 1450));
   ASSERT_TRUE(ph.ok());
@@ -309,7 +294,7 @@ TEST(KnotDetect, GeneratedPineAndSpruce) {
 // detector's own estimate of it; pine (heartwood share of the radius) and spruce (dry core).
 TEST(KnotDetect, ClearLogHasNoKnots) {
   for (const char* name : {"pine_8", "gran1_spruce"}) {
-    LogModel log = load(name);
+    LogModel log = test::sample_model(name);
     log.knots.clear();
     const Scene s = detect(log, section_options(1250, 1450));
     Stem bare = s.truth.stem;
@@ -328,7 +313,7 @@ TEST(KnotDetect, ClearLogHasNoKnots) {
 // Two knots of one whorl at the same height, 20° apart: 17 mm apart at r = 50, so a 14 mm
 // knot leaves a gap of 3 mm there and they touch from r ≈ 40 inwards.
 TEST(KnotDetect, WhorlNeighbours20DegreesApartAreSeparated) {
-  LogModel log = load("pine_8");
+  LogModel log = test::sample_model("pine_8");
   log.knots.clear();
   for (int n = 0; n < 2; ++n) {
     Knot k;
@@ -357,7 +342,7 @@ TEST(KnotDetect, WhorlNeighbours20DegreesApartAreSeparated) {
 // slices, a 4 m log at 5 mm) with the stem repeated alike. Prints the timings, asserts only
 // that the repeated whorl is found in every repeat.
 TEST(KnotDetect, TimingOf820Slices) {
-  const Scene s = detect(load("pine_8"), section_options(1250, 1450));
+  const Scene s = detect(test::sample_model("pine_8"), section_options(1250, 1450));
   ASSERT_EQ(s.volume.slice_count(), 41);
   const int repeats = 20, n = 41 * repeats;
   const double period = 41 * 5.0;

@@ -76,15 +76,6 @@ Vec3 log_polar(const Phantom& p, double r, double w, double z) {
   return p.to_scanner({c.x + r * std::cos(w), c.y + r * std::sin(w), z});
 }
 
-// A path in double quotes for a command line (built by appending: GCC 12 warns falsely about
-// "\"" + string).
-std::string quoted(const std::string& s) {
-  std::string q(1, '"');
-  q.append(s);
-  q.push_back('"');
-  return q;
-}
-
 // ---- options and bad input -------------------------------------------------------------------
 
 TEST(PhantomOptions, RejectsNonsenseNamingTheOption) {
@@ -806,11 +797,11 @@ TEST(PhantomCli, WritesAShortSectionWithTruth) {
   TempDir tmp;
   std::string out;
   const std::string log = (test::sample_log("pine_8") / "log.json").string();
-  const int rc =
-      test::run_sawyer("phantom " + quoted(log) + " -o " + quoted((tmp / "png").string()) +
-                           " --format png --from-mm 1000 --to-mm 1020 --size 256 "
-                           "--pixel-mm 1.4 --seed 3",
-                       &out);
+  const int rc = test::run_sawyer("phantom " + test::quoted(log) + " -o " +
+                                      test::quoted((tmp / "png").string()) +
+                                      " --format png --from-mm 1000 --to-mm 1020 --size 256 "
+                                      "--pixel-mm 1.4 --seed 3",
+                                  &out);
   ASSERT_EQ(rc, 0) << out;
   EXPECT_TRUE(fs::exists(tmp / "png/truth/log.json")) << out;
   int pngs = 0;
@@ -826,18 +817,18 @@ TEST(PhantomCli, BadInputGetsOneLineAndNoOutput) {
     std::string args, expect;
   };
   const std::vector<Case> cases = {
-      {quoted((tmp / "missing.json").string()), "missing.json"},
-      {quoted((tmp / "bad.json").string()), "bad.json"},
-      {quoted(good) + " --spacing-mm -5", "--spacing-mm"},
-      {quoted(good) + " --tilt-x-deg 12", "--tilt-x-deg"},
-      {quoted(good) + " --pixel-mm 0.3", "smallest pixel size"},
-      {quoted(good) + " --format jpeg", "--format"},
-      {quoted(good) + " --from-mm 5000 --to-mm 5100", "extent"},
+      {test::quoted((tmp / "missing.json").string()), "missing.json"},
+      {test::quoted((tmp / "bad.json").string()), "bad.json"},
+      {test::quoted(good) + " --spacing-mm -5", "--spacing-mm"},
+      {test::quoted(good) + " --tilt-x-deg 12", "--tilt-x-deg"},
+      {test::quoted(good) + " --pixel-mm 0.3", "smallest pixel size"},
+      {test::quoted(good) + " --format jpeg", "--format"},
+      {test::quoted(good) + " --from-mm 5000 --to-mm 5100", "extent"},
   };
   for (const Case& c : cases) {
     std::string out;
     const int rc =
-        test::run_sawyer("phantom " + c.args + " -o " + quoted((tmp / "out").string()), &out);
+        test::run_sawyer("phantom " + c.args + " -o " + test::quoted((tmp / "out").string()), &out);
     EXPECT_NE(rc, 0) << c.args;
     EXPECT_NE(out.find(c.expect), std::string::npos) << c.args << "\n" << out;
     EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;

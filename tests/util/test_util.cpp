@@ -40,6 +40,14 @@ TempDir::~TempDir() {
   fs::remove_all(path_, ec);
 }
 
+std::string quoted(const fs::path& p) {
+  // Built by appending: GCC 12 warns (-Wrestrict, a false positive) on "\"" + string + "\"".
+  std::string q(1, '"');
+  q.append(p.string());
+  q.push_back('"');
+  return q;
+}
+
 int run_sawyer(const std::string& args, std::string* output) {
   const char* env = std::getenv("SAWYER_BIN");
   const char* bin = (env && *env) ? env : SAWYER_TEST_BIN;

@@ -31,10 +31,12 @@
 #include <thread>
 #include <unordered_map>
 
+#include "sawyer/core/stats.h"
+#include "sawyer/core/vec.h"
+
 namespace sawyer::ct {
 namespace {
 
-constexpr double kTwoPi = 6.283185307179586;
 // Contrast value of samples that belong to no wood class: outside the log, in the bark, or on
 // the heartwood border where a sample mixes both classes.
 constexpr std::int16_t kInvalid = std::numeric_limits<std::int16_t>::min();
@@ -43,19 +45,6 @@ constexpr std::int16_t kInvalid = std::numeric_limits<std::int16_t>::min();
 std::int16_t round_hu(double x) {
   x = std::clamp(x, -32000.0, 32000.0);
   return static_cast<std::int16_t>(x >= 0 ? x + 0.5 : x - 0.5);
-}
-
-double wrap_2pi(double a) {
-  a = std::fmod(a, kTwoPi);
-  return a < 0 ? a + kTwoPi : a;
-}
-
-// Signed smallest difference a − b of two angles, in (−π, π].
-double angle_diff(double a, double b) {
-  double d = std::fmod(a - b, kTwoPi);
-  if (d > kTwoPi / 2) d -= kTwoPi;
-  if (d <= -kTwoPi / 2) d += kTwoPi;
-  return d;
 }
 
 template <class F>
@@ -90,7 +79,7 @@ struct Grid {
   double hu_at(int i, int j, int k) const {
     const int c = wood_class(i, j, k);
     const std::int16_t v = hu[at(i, j, k)];
-    if (c < 0 || v == std::numeric_limits<std::int16_t>::min()) return NAN;
+    if (c < 0 || v == kInvalid) return NAN;
     return v + level[(static_cast<size_t>(i) * nr + j) * 2 + c];
   }
 
@@ -198,8 +187,7 @@ void estimate_heartwood(Grid& g, int threads) {
           if (x != kInvalid && j < g.out[static_cast<size_t>(i) * g.nw + k]) v.push_back(x);
         }
         if (v.size() * 2 < static_cast<size_t>(per)) continue;
-        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-        prof[i * n_prof + static_cast<size_t>(sct) * g.nr + j] = v[v.size() / 2];
+        prof[i * n_prof + static_cast<size_t>(sct) * g.nr + j] = median_inplace(v);
       }
   });
   parallel_for(g.ns, threads, [&](int i) {
@@ -215,8 +203,7 @@ void estimate_heartwood(Grid& g, int threads) {
         }
         p[static_cast<size_t>(j)] = std::numeric_limits<float>::quiet_NaN();
         if (w.empty()) continue;
-        std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
-        p[static_cast<size_t>(j)] = w[w.size() / 2];
+        p[static_cast<size_t>(j)] = median_inplace(w);
         last = j;
       }
       if (last < 8) continue;
@@ -268,8 +255,7 @@ void to_contrast(Grid& g, int threads, int half_window) {
       for (int c = 0; c < 2; ++c) {
         auto& x = v[static_cast<size_t>(c)];
         if (static_cast<int>(x.size()) * stride < g.nw / 10) continue;  // too few: no level
-        std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
-        level[(static_cast<size_t>(i) * g.nr + j) * 2 + c] = x[x.size() / 2];
+        level[(static_cast<size_t>(i) * g.nr + j) * 2 + c] = median_inplace(x);
       }
     }
   });
@@ -286,8 +272,7 @@ void to_contrast(Grid& g, int threads, int half_window) {
           if (!std::isnan(l)) w.push_back(l);
         }
         if (w.empty()) continue;
-        std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
-        smooth[(static_cast<size_t>(i) * g.nr + j) * 2 + c] = w[w.size() / 2];
+        smooth[(static_cast<size_t>(i) * g.nr + j) * 2 + c] = median_inplace(w);
       }
   });
   parallel_for(g.ns, threads, [&](int i) {
@@ -376,7 +361,7 @@ void centroid(const Grid& g, int j, const std::vector<int>& pix, double* w, doub
     sx += c * std::cos(k * g.dw), sy += c * std::sin(k * g.dw);
     sz += c * g.z[static_cast<size_t>(i)], sw += c;
   }
-  *w = wrap_2pi(std::atan2(sy, sx));
+  *w = wrap_angle(std::atan2(sy, sx));
   *z = sw > 0 ? sz / sw : 0;
 }
 
@@ -707,7 +692,7 @@ struct Axis {
   std::array<double, 3> z{};
   std::array<double, 2> w{};
   double z_at(double r) const { return z[0] + z[1] * std::sqrt(r) + z[2] * r; }
-  double w_at(double r) const { return wrap_2pi(w[0] + w[1] * std::log(std::max(r, 1.0))); }
+  double w_at(double r) const { return wrap_angle(w[0] + w[1] * std::log(std::max(r, 1.0))); }
 };
 
 Axis fit_axis(const std::vector<KnotShell>& shells) {
@@ -762,7 +747,7 @@ bool probe(const Grid& g, int j, double w, double z, double d, KnotShell* s) {
   }
   if (in_n == 0) return false;
   s->r = rr;
-  s->omega = wrap_2pi(w);
+  s->omega = wrap_angle(w);
   s->z = z;
   s->diameter = d;
   s->contrast = in_s / in_n;
@@ -795,7 +780,7 @@ bool local_centre(const Grid& g, int j, double w, double z, double rad, double s
     }
   }
   if (sw <= 0) return false;
-  *wc = wrap_2pi(kc * g.dw + sa / sw / rr);
+  *wc = wrap_angle(kc * g.dw + sa / sw / rr);
   *zc = z + sz / sw;
   return true;
 }
@@ -830,7 +815,7 @@ void follow_outwards(const Grid& g, const KnotDetectOptions& o, KnotTrace* t) {
   for (int j = j0; j < g.nr; ++j) {
     KnotShell s;
     const double rr = g.r(j);
-    const double w = wrap_2pi(axis.w_at(rr) + off_w), z = axis.z_at(rr) + off_z;
+    const double w = wrap_angle(axis.w_at(rr) + off_w), z = axis.z_at(rr) + off_z;
     if (!probe(g, j, w, z, d, &s)) {
       if (++blind > max_blind) break;
       continue;

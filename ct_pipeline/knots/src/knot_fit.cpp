@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "sawyer/core/stats.h"
 #include "sawyer/core/vec.h"
 
 namespace sawyer::ct {
@@ -77,13 +78,11 @@ double r_dead_from_density(const std::vector<Shell>& shells, double r_end) {
   for (int i = 0; i < n; ++i) {
     w.clear();
     for (int j = std::max(0, i - h); j <= std::min(n - 1, i + h); ++j) w.push_back(v[j].second);
-    std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
-    level[i] = w[w.size() / 2];
+    level[i] = median_inplace(w);
   }
   const int outer_from = std::min(n - 1, static_cast<int>(n * (1.0 - kOuterFraction)));
   std::vector<double> outer(level.begin() + outer_from, level.end());
-  std::nth_element(outer.begin(), outer.begin() + outer.size() / 2, outer.end());
-  const double dead_level = outer[outer.size() / 2];
+  const double dead_level = median_inplace(outer);
   const double peak = *std::max_element(level.begin(), level.begin() + outer_from + 1);
   if (peak - dead_level < kDeadStepHu) return r_end;
   const double mid = 0.5 * (peak + dead_level);
@@ -408,8 +407,7 @@ Result<DiameterFit> fit_diameter(const std::vector<Shell>& shells, double r_end,
     std::vector<double> res;
     profile_residuals(shells, *best_cost, &res);
     for (double& r : res) r = std::abs(r);
-    std::nth_element(res.begin(), res.begin() + res.size() / 2, res.end());
-    const double mad_sigma = kMadToSigma * res[res.size() / 2];
+    const double mad_sigma = kMadToSigma * median_inplace(res);
     const double sigma2 = std::max(kMinVariance, mad_sigma * mad_sigma);
     // Dark rings where a candidate says "sound" argue for an earlier r_dead. Once a trace
     // shows a ring at all, segmented shells without one where a candidate says "dead" argue

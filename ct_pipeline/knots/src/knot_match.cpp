@@ -8,13 +8,6 @@
 namespace sawyer::ct {
 namespace {
 
-double angle_diff(double a, double b) {
-  double d = std::fmod(a - b, kTwoPi);
-  if (d > kPi) d -= kTwoPi;
-  if (d < -kPi) d += kTwoPi;
-  return d;
-}
-
 // Evaluation radius of a true knot: 50 mm, or its end when it is shorter.
 double eval_r(const Knot& t) { return std::min(50.0, std::max(5.0, t.r_end)); }
 

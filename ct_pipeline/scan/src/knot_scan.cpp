@@ -72,8 +72,8 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
       double sum = 0;
       int n = 0;
       for (double r = r0; r <= r1; r += 2.0, ++n) {
-        double dw = std::remainder(k.azimuth_at(r) - q.azimuth_at(r), kTwoPi);
-        sum += std::hypot(k.height_at(r) - q.height_at(r), r * dw);
+        sum += std::hypot(k.height_at(r) - q.height_at(r),
+                          r * angle_diff(k.azimuth_at(r), q.azimuth_at(r)));
       }
       if (sum / n < dz + 0.5 * std::max(k.max_diameter(), q.max_diameter())) {
         same = true;

@@ -35,6 +35,8 @@ class TempDir {
 // Runs the `sawyer` binary ($SAWYER_BIN, else the one built with the tests) with `args`; returns the exit code, stdout+stderr in
 // *output.
 int run_sawyer(const std::string& args, std::string* output);
+// `p` in double quotes, for run_sawyer's command line.
+std::string quoted(const std::filesystem::path& p);
 
 // Writes a text file (test fixtures).
 void write_file(const std::filesystem::path& path, const std::string& text);
