@@ -1,12 +1,15 @@
 // knot_bench: accuracy and speed of the knot pass (issue 5) on phantoms with ground truth.
 //
-//   knot_bench [--slices N] [--random K] [--only LOG_ID] [--condition clean|hard|placed] [--seed S]
-//              [--at F] [--speed 0|1] [--list 0|1]
+//   knot_bench [--slices N] [--random K] [--only LOG_ID]
+//              [--condition clean|hard|placed|clutter|coarse] [--seed S] [--at F] [--speed 0|1]
+//              [--list 0|1|2]
 //
 // For each log (the three bundled ones and K freshly generated pine and spruce logs) and each
 // condition ("clean": 512 x 512, 0.8 mm, 5 mm slices, 20 HU noise, the scanner bed; "hard":
-// twice the noise; "placed", only when asked for with --condition: tilted 3°, 15 mm off centre,
-// rolled 40°, lying on the bed, 5 % of the slices missing) it renders N slices around F of the log's length in memory, runs the stem
+// twice the noise; and only when asked for with --condition: "placed", tilted 3°, 15 mm off
+// centre, rolled 40°, lying on the bed, 5 % of the slices missing, 0.9 mm pixels; "clutter", placed with steel
+// support bars and a chain in some slices; "coarse", 10 mm slices of 1 mm pixels over the same
+// length) it renders N slices (5 mm apart) around F of the log's length in memory, runs the stem
 // pass (which keeps the log's voxels) and the knot pass, and matches the knots found to the
 // phantom's true knots (ct_pipeline/knots/include/sawyer/ct/knot_match.h): a pair has its
 // azimuth within 15° and its height within 15 mm at r = min(50 mm, both knots' r_end), nearest
@@ -64,12 +67,20 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, std::u
   o.to_mm = std::min(log.stem.z_end(), from + spacing * (n - 1));
   o.seed = seed;
   if (condition == "hard") o.noise_hu *= 2;
-  if (condition == "placed") {  // a log as it lies on a real bed: tilted, off centre, touching
+  if (condition == "placed" || condition == "clutter") {
+    // A log as it lies on a real bed: tilted, off centre, touching; clutter adds steel support
+    // bars and a chain in some slices.
     o.placement.tilt_x_deg = 3;
     o.placement.offset_x_mm = 15;
     o.placement.roll_deg = 40;
     o.bed_gap_mm = 0;
     o.drop_slices = std::max(1, n / 20);
+    o.clutter = condition == "clutter";
+    o.pixel_mm = 0.9;  // a 461 mm field of view: logs up to 43 cm 15 mm off centre fit
+  }
+  if (condition == "coarse") {  // a production scanner's spacing: 10 mm slices, 1 mm pixels,
+    o.slice_spacing_mm = 10;    // over the same length of log
+    o.pixel_mm = 1.0;
   }
   auto ph = Phantom::create(log, o);
   if (!ph) return ph.error();
@@ -189,6 +200,12 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (!only_condition.empty() && only_condition != "clean" && only_condition != "hard" &&
+      only_condition != "placed" && only_condition != "clutter" && only_condition != "coarse") {
+    std::fprintf(stderr, "knot_bench: unknown condition %s (clean, hard, placed, clutter, coarse)\n",
+                 only_condition.c_str());
+    return 2;
+  }
   std::vector<LogModel> logs;
   for (const char* name : {"gran1_spruce", "pine_8", "spruce_77"}) {
     auto r = read_log_json(std::string(SAWYER_SOURCE_DIR) + "/sample_logs/" + name + "/log.json");
@@ -213,8 +230,10 @@ int main(int argc, char** argv) {
   int tb = 0, fb = 0, nf = 0, ns = 0;
   for (const LogModel& log : logs) {
     if (!only.empty() && log.id != only) continue;
-    for (const char* cond : {"clean", "hard", "placed"}) {
-      if (only_condition.empty() ? !std::strcmp(cond, "placed") : only_condition != cond) continue;
+    for (const char* cond : {"clean", "hard", "placed", "clutter", "coarse"}) {
+      const bool asked = !only_condition.empty();
+      if (asked ? only_condition != cond : std::strcmp(cond, "clean") && std::strcmp(cond, "hard"))
+        continue;
       auto row = run(log, cond, n, seed, at);
       if (!row) {
         std::printf("| %s | %s | error: %s |\n", log.id.c_str(), cond, row.error().message().c_str());

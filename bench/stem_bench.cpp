@@ -1,11 +1,12 @@
 // stem_bench: accuracy and speed of the stem pass (issue 4) on phantoms with ground truth.
 //
-//   stem_bench [--slices N] [--spacing MM] [--random K] [--speed-slices M] [--only LOG_ID]
-//              [--condition clean|hard] [--seed S] [--at F] [--verbose 1]
+//   stem_bench [--slices N] [--spacing MM] [--pixel MM] [--random K] [--speed-slices M] [--only LOG_ID]
+//              [--condition clean|hard|noise2|touch] [--seed S] [--at F] [--verbose 1]
 //
 // For each log (the three bundled ones and K freshly generated ones) and each condition
 // ("clean": 512 x 512, 0.8 mm, the default 20 HU noise and bed; "hard": twice the noise, the
-// bed touching the log, 5 % missing slices) it renders N slices in memory, runs scan_stem on
+// bed touching the log, 5 % missing slices; "noise2" and "touch", only when asked for: twice
+// the noise alone, the bed touching alone) it renders N slices in memory, runs scan_stem on
 // them and compares with the phantom's truth: pith error (median, 95th percentile, worst slice),
 // outer radius RMS over every angle and slice, heartwood radius RMS (--verbose 1 lists every
 // slice). A second table times the whole stem pass on M slices with one and two threads.
@@ -34,6 +35,7 @@ using namespace sawyer::ct;
 namespace {
 
 bool verbose = false;
+double pixel_mm = 0.8;  // --pixel
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -55,10 +57,13 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
                 std::uint64_t seed, double at) {
   PhantomOptions o;
   o.slice_spacing_mm = spacing;
+  o.pixel_mm = pixel_mm;
   const double mid = log.stem.z_begin() + at * log.stem.length_mm();
   o.from_mm = mid - 0.5 * spacing * (n - 1);
   o.to_mm = mid + 0.5 * spacing * (n - 1);
   o.seed = seed;
+  if (condition == "noise2") o.noise_hu *= 2;  // one of hard's three parts at a time
+  if (condition == "touch") o.bed_gap_mm = 0;
   if (condition == "hard") {
     o.noise_hu *= 2;
     o.bed_gap_mm = 0;  // the log lies on the belt
@@ -194,6 +199,7 @@ int main(int argc, char** argv) {
   for (int a = 1; a + 1 < argc; a += 2) {
     if (!std::strcmp(argv[a], "--slices")) n = std::atoi(argv[a + 1]);
     else if (!std::strcmp(argv[a], "--spacing")) spacing = std::atof(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--pixel")) pixel_mm = std::atof(argv[a + 1]);
     else if (!std::strcmp(argv[a], "--random")) random_logs = std::atoi(argv[a + 1]);
     else if (!std::strcmp(argv[a], "--verbose")) verbose = std::atoi(argv[a + 1]) != 0;
     else if (!std::strcmp(argv[a], "--only")) only = argv[a + 1];
@@ -218,14 +224,18 @@ int main(int argc, char** argv) {
     auto r = generate_log(g);
     if (r) logs.push_back(std::move(r).value());
   }
-  std::printf("Stem accuracy on phantoms (512 x 512, 0.8 mm, %d slices at %.1f mm)\n\n", n, spacing);
+  std::printf("Stem accuracy on phantoms (512 x 512, %.2f mm, %d slices at %.1f mm)\n\n", pixel_mm, n,
+              spacing);
   std::printf("| log | condition | slices | pith median mm | pith p95 mm | worst mm (slice) | "
               "radius RMS mm | heartwood RMS mm | slices/s |\n");
   std::printf("|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const LogModel& log : logs) {
     if (!only.empty() && log.id != only) continue;
-    for (const char* cond : {"clean", "hard"}) {
-      if (!only_condition.empty() && only_condition != cond) continue;
+    for (const char* cond : {"clean", "hard", "noise2", "touch"}) {
+      // noise2 and touch (two of hard's three parts alone) only when asked for.
+      if (only_condition.empty() ? std::strcmp(cond, "clean") && std::strcmp(cond, "hard")
+                                 : only_condition != cond)
+        continue;
       auto row = run(log, cond, n, spacing, seed, at);
       if (!row) {
         std::printf("| %s | %s | error: %s |\n", log.id.c_str(), cond,

@@ -429,6 +429,8 @@ std::vector<Track> track_inwards(const Grid& g, const std::vector<std::vector<Bl
           c.emplace_back(tracks[static_cast<size_t>(t)].w, tracks[static_cast<size_t>(t)].z);
         auto parts = split_nearest(g, j, b.pix, c);
         for (size_t n = 0; n < claim.size(); ++n) {
+          // A claimant nearer to none of the samples gets nothing here (and no empty shell).
+          if (parts[n].empty()) continue;
           auto& v = next[claim[n]];
           v.insert(v.end(), parts[n].begin(), parts[n].end());
         }
@@ -717,6 +719,17 @@ Axis fit_axis(const std::vector<KnotShell>& shells) {
   return a;
 }
 
+// Least-squares slope dz/dr of the shells' centres.
+double z_slope(const std::vector<KnotShell>& shells) {
+  double sr = 0, sz = 0;
+  for (const KnotShell& s : shells) sr += s.r, sz += s.z;
+  const double n = static_cast<double>(shells.size());
+  const double mr = sr / n, mz = sz / n;
+  double srr = 0, srz = 0;
+  for (const KnotShell& s : shells) srr += (s.r - mr) * (s.r - mr), srz += (s.r - mr) * (s.z - mz);
+  return srr > 0 ? srz / srr : 0.0;
+}
+
 // What the knot looks like on shell j around the predicted axis point: mean contrast inside the
 // disc of the knot's diameter on the cylinder, and mean contrast in the 2 mm ring around it.
 // Returns false when the disc has no wood samples (bark side, heartwood border band).
@@ -945,11 +958,18 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
     if (span < options.min_length_mm) continue;
     KnotTrace kt;
     for (size_t n = t.shell.size(); n-- > 0;)
-      if (!truncated(g, t.shell[n], t.pix[n]))
+      if (!t.pix[n].empty() && !truncated(g, t.shell[n], t.pix[n]))
         kt.shells.push_back(measure_shell(g, t.shell[n], t.pix[n],
                                           taken[static_cast<size_t>(t.shell[n])],
                                           options.diameter_from_arc));
-    if (kt.shells.size() < 2) continue;
+    // What is left after the truncated shells must still be long enough to be a knot.
+    if (kt.shells.size() < 2 ||
+        kt.shells.back().r - kt.shells.front().r + g.dr < options.min_length_mm)
+      continue;
+    // A knot rises slowly with r (the measured logs: dz/dr between -0.3 and 0.8). A run whose
+    // centre climbs or falls steeply is something lying along the log (the heartwood border, a
+    // crack, a support), not a branch: following it outwards would extrapolate that slope.
+    if (std::abs(z_slope(kt.shells)) > options.max_axis_slope) continue;
     double dmax = 0;
     for (const KnotShell& s : kt.shells) dmax = std::max(dmax, s.diameter);
     if (dmax < options.min_diameter_mm) continue;

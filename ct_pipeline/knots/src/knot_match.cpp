@@ -103,7 +103,25 @@ KnotMatch match_knots(const std::vector<Knot>& found, const std::vector<Knot>& t
   for (size_t f = 0; f < found.size(); ++f)
     if (of_found[f] < 0) {
       ++m.spurious;
-      m.spurious_list.push_back(describe("spurious found", found[f]));
+      std::string line = describe("spurious found", found[f]);
+      // The nearest true knot at the found knot's own evaluation radius, to tell a knot found
+      // twice (its true knot paired with another found knot) from one that is not there.
+      const double r = eval_r(found[f]);
+      double best = 1e300;
+      size_t bt = 0;
+      for (size_t t = 0; t < truth.size(); ++t) {
+        const double d = std::hypot(r * angle_diff(found[f].azimuth_at(r), truth[t].azimuth_at(r)),
+                                    found[f].height_at(r) - truth[t].height_at(r));
+        if (d < best) best = d, bt = t;
+      }
+      if (best < 1e300) {
+        char more[160];
+        std::snprintf(more, sizeof more, "; nearest true knot %d, %.1f mm away at r %.0f mm%s",
+                      truth[bt].id, best, r,
+                      of_truth[bt] >= 0 ? " (paired with another found knot)" : "");
+        line += more;
+      }
+      m.spurious_list.push_back(line);
     }
   return m;
 }

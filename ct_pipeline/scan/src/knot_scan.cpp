@@ -11,6 +11,27 @@
 namespace sawyer::ct {
 namespace {
 constexpr double kMinCommonMm = 10.0;
+
+// A short piece of a knot near the pith, cut off from the rest of it where the knot is still
+// thin (a few voxels across), is fitted as a knot of its own that ends where the piece ends. It
+// is part of the longer knot `q` when it ends well before q does and, over its outer 10 mm
+// (where it was cut off from q; further in, both axes are extrapolations towards the pith), its
+// axis stays inside q's tube (q's axis formula continued inwards where q's own trace starts
+// later), give or take half a slice spacing; in height, half a slice more (a thin knot that
+// straddles two slices can be cut into its upper and lower half). A neighbour of the same whorl
+// is not: it runs on to its own end, and 20 degrees apart at r = 20 mm is already 7 mm of arc
+// off q's axis.
+bool inner_piece_of(const Knot& k, const KnotTrace& trace, const Knot& q, double dz) {
+  if (trace.shells.empty() || k.r_end > q.r_end - kMinCommonMm) return false;
+  const double r0 = std::max(trace.shells.front().r, k.r_end - kMinCommonMm);
+  double excess = 0;
+  int n = 0;
+  for (double r = r0; r <= k.r_end; r += 2.0, ++n) {
+    const double dh = std::max(0.0, std::abs(k.height_at(r) - q.height_at(r)) - 0.5 * dz);
+    excess += std::hypot(dh, r * angle_diff(k.azimuth_at(r), q.azimuth_at(r))) - 0.5 * q.diameter_at(r);
+  }
+  return n > 0 && excess / n < 0.5 * dz;
+}
 }  // namespace
 
 Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
@@ -66,6 +87,10 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
     bool same = false;
     for (size_t u : unique) {
       const Knot& q = fits[u].value().knot;
+      if (inner_piece_of(k, traces[i], q, dz)) {
+        same = true;
+        break;
+      }
       const double r0 = std::max(traces[i].shells.front().r, traces[u].shells.front().r);
       const double r1 = std::min(k.r_end, q.r_end);
       if (r1 - r0 < kMinCommonMm) continue;

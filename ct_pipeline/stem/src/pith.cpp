@@ -73,8 +73,13 @@ constexpr int kCoarseTensorRadius = 5;
 constexpr int kPriorTensorRadius = 4;
 constexpr int kRefineTensorRadius = 2;
 // Binomial pre-smoothing passes before the gradient (one pass: sigma 0.71 px, about the
-// scanner's PSF, i.e. the matched filter for the ring borders).
+// scanner's PSF, i.e. the matched filter for the ring borders) while a pass's sigma stays
+// under kMaxPreSigmaMm: with coarser pixels the scanner's own blur already spans as much of a
+// ring (3 mm rings at 1 mm pixels are 3 pixels wide; the pass would take half of what contrast
+// the PSF left them, and the vote drifts onto the knots: gran1 at 1 mm pixels, pith median 4.6
+// mm with the pass, 0.9 mm without).
 constexpr int kPrePasses = 1;
+constexpr double kMaxPreSigmaMm = 0.6;
 
 // The ring-profile refinement's pixels, structure of arrays (see refine_pith_concentric).
 struct RingPixels {
@@ -195,7 +200,7 @@ Grid binomial(const Grid& in, int passes) {
 }
 
 Orientation orientation_field(const Grid& raw, int r, double sx, double sy) {
-  const Grid img = binomial(raw, kPrePasses);
+  const Grid img = binomial(raw, 0.71 * std::max(sx, sy) <= kMaxPreSigmaMm ? kPrePasses : 0);
   const int w = img.w, h = img.h;
   Grid jxx(w, h), jxy(w, h), jyy(w, h);
   for (int y = 1; y + 1 < h; ++y)

@@ -37,6 +37,7 @@ struct KnotDetectOptions {
   double low_contrast = 120;
   double high_contrast = 250;
   double min_length_mm = 4;  // shorter segmented runs along r are noise
+  double max_axis_slope = 2;  // steeper runs (|dz/dr|, least squares) lie along the log: no knot
   // Two blobs of one knot's shell whose centroids are this far apart (on the cylinder) are two
   // knots that touched further out; closer, they are one knot broken up by noise.
   double min_split_mm = 8;
