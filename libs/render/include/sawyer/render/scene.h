@@ -1,0 +1,84 @@
+// What the renderer draws, in the log frame (DESIGN.md 3: mm, radians, z along the log).
+//
+//   Board b = Board::from_string("0,30,150,50,0,0,4000").value();  // x,y,w,t,rot(deg),z0,z1
+//   Scene s;
+//   s.boards.push_back(b);
+//   s.cross_sections.push_back(1200.0);
+//   s.log_surface = true;
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "sawyer/core/result.h"
+#include "sawyer/render/camera.h"
+
+namespace sawyer::render {
+
+// The faces of a board, as a bit mask.
+enum class Face : unsigned {
+  kTop = 1,      // wide face on the +v side (v = the thickness direction)
+  kBottom = 2,   // wide face on the -v side
+  kLeft = 4,     // narrow face (edge) on the -u side (u = the width direction)
+  kRight = 8,    // narrow face on the +u side
+  kButt = 16,    // end at z0
+  kTopEnd = 32,  // end at z1
+};
+inline constexpr unsigned kAllFaces = 63;
+inline constexpr unsigned kLongFaces = 15;  // top, bottom, left, right
+
+// "top", "bottom", "left", "right", "butt", "end".
+const char* face_name(Face f);
+
+// A board: a box in the log frame. Its cross-section is centred on (cx, cy), rotated by
+// `rotation` about the log axis: u = (cos r, sin r, 0) across the width, v = (-sin r, cos r, 0)
+// across the thickness. It spans [z0, z1] along the log. Where the box leaves the log (wane)
+// nothing is drawn.
+struct Board {
+  double cx = 0, cy = 0;     // mm, scanner frame
+  double width = 150;        // mm, along u
+  double thickness = 50;     // mm, along v
+  double rotation = 0;       // rad
+  double z0 = 0, z1 = 1000;  // mm
+
+  Vec3 u() const;
+  Vec3 v() const;
+  // The face as a rectangle seen from outside the board. Long faces: image x along the log
+  // (z0 → z1), image y across the face. End faces: x along u, y along v (seen from outside).
+  PlaneRect face(Face f) const;
+  // Checks sizes (> 0) and z0 < z1; the error names the bad value.
+  Status validate() const;
+  // Parses "x,y,w,t,rot_deg,z0,z1" (mm and degrees).
+  static Result<Board> from_string(const std::string& text);
+};
+
+// A longitudinal section: the plane containing the log's mean pith line at azimuth `angle`
+// (rad, DESIGN.md 3), shifted by `offset` mm along its normal; spans the whole log.
+struct LongitudinalSection {
+  double angle = 0;
+  double offset = 0;
+};
+
+// How fragments are coloured.
+enum class ShadeMode {
+  kWood,       // the knotted-wood colour with lighting (the paper's renderer and more)
+  kTimeField,  // raw float output: (t, t_stem, t_knot, knot index + dead flag), for tests/tools
+};
+
+struct Scene {
+  std::vector<Board> boards;
+  unsigned board_faces = kAllFaces;
+  std::vector<double> cross_sections;  // heights z, mm
+  std::vector<LongitudinalSection> longitudinal_sections;
+  bool log_surface = false;  // the outer surface under the bark
+  // The part of the outer surface drawn (mm along the log), e.g. up to where boards are sawn out.
+  double surface_z0 = -1e30, surface_z1 = 1e30;
+  // Extra rectangles drawn with the wood (e.g. a face view's plane).
+  std::vector<PlaneRect> planes;
+  // Skip the far sides of the log surface and of closed boards (all six faces): they are hidden
+  // (the shader's discard keeps the GPU from testing depth before shading, so this halves their
+  // cost). Turn off to look into a log whose ends are not drawn.
+  bool cull_hidden = true;
+};
+
+}  // namespace sawyer::render

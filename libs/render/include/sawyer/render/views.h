@@ -1,0 +1,57 @@
+// Whole images of a log: board faces, sections and 3D views, rendered offscreen and read back.
+// Used by `sawyer render`, the benchmark and the tests. Need a current context (gl_context.h).
+//
+//   Result<Image> img = render_board_faces(renderer, board, kLongFaces, {1200, 0});
+//   if (img) write_image("board.png", img.value());
+#pragma once
+
+#include "sawyer/render/image.h"
+#include "sawyer/render/wood_renderer.h"
+
+namespace sawyer::render {
+
+struct ImageSize {
+  int width = 1200;
+  int height = 0;  // 0: from the content's aspect ratio (board faces, sections)
+};
+
+struct FaceLayout {
+  // Fill the image exactly even when that stretches the faces (else keep millimetres square and
+  // pad with the background).
+  bool stretch = false;
+  int gap_px = 8;  // between stacked faces
+  // Supersampling: render n x n samples per pixel and average them (anti-aliasing of the fine
+  // rings; costs n² times the shading). 1 = one sample per pixel.
+  int supersample = 1;
+  float background[4] = {0.12f, 0.12f, 0.13f, 1.0f};
+};
+
+// The board's faces in `faces` (Face bits), stacked top to bottom in the order top, bottom,
+// left, right, butt, end; long faces run left (z0) to right (z1).
+Result<Image> render_board_faces(WoodRenderer& renderer, const Board& board, unsigned faces,
+                                 ImageSize size, const ShadeOptions& shade = {},
+                                 const FaceLayout& layout = {});
+
+// The cross-section at height z, seen from the top end (+z), x to the right, y up.
+Result<Image> render_cross_section(WoodRenderer& renderer, double z, ImageSize size,
+                                   const ShadeOptions& shade = {}, const FaceLayout& layout = {});
+
+// A longitudinal section of the whole log, z to the right.
+Result<Image> render_longitudinal_section(WoodRenderer& renderer, const LongitudinalSection& s,
+                                          ImageSize size, const ShadeOptions& shade = {},
+                                          const FaceLayout& layout = {});
+
+// A 3D view of `scene` (size.height 0 means 3:4 of the width).
+Result<Image> render_view(WoodRenderer& renderer, const Scene& scene, const Camera& camera,
+                          ImageSize size, const ShadeOptions& shade = {},
+                          const FaceLayout& layout = {});
+
+// The rectangle of a cross-section at z (square around the pith, covering the log) and of a
+// longitudinal section, as drawn by the functions above.
+PlaneRect cross_section_rect(const WoodRenderer& renderer, double z);
+PlaneRect longitudinal_rect(const WoodRenderer& renderer, const LongitudinalSection& s);
+
+// A camera that shows the whole log from the side, slightly from above (the viewer's default).
+Camera default_log_camera(const WoodRenderer& renderer);
+
+}  // namespace sawyer::render

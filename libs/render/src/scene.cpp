@@ -1,0 +1,96 @@
+#include "sawyer/render/scene.h"
+
+#include <cmath>
+#include <sstream>
+#include <vector>
+
+namespace sawyer::render {
+
+const char* face_name(Face f) {
+  switch (f) {
+    case Face::kTop:
+      return "top";
+    case Face::kBottom:
+      return "bottom";
+    case Face::kLeft:
+      return "left";
+    case Face::kRight:
+      return "right";
+    case Face::kButt:
+      return "butt";
+    case Face::kTopEnd:
+      return "end";
+  }
+  return "?";
+}
+
+Vec3 Board::u() const { return {std::cos(rotation), std::sin(rotation), 0}; }
+Vec3 Board::v() const { return {-std::sin(rotation), std::cos(rotation), 0}; }
+
+PlaneRect Board::face(Face f) const {
+  const Vec3 c{cx, cy, z0}, U = u(), V = v(), Z{0, 0, 1};
+  const double hw = 0.5 * width, ht = 0.5 * thickness, len = z1 - z0;
+  PlaneRect r;
+  switch (f) {
+    case Face::kTop:  // normal +v
+      r = {c + ht * V - hw * U, Z, U, len, width};
+      break;
+    case Face::kBottom:  // normal -v
+      r = {c - ht * V + hw * U, Z, -1.0 * U, len, width};
+      break;
+    case Face::kRight:  // normal +u
+      r = {c + hw * U + ht * V, Z, -1.0 * V, len, thickness};
+      break;
+    case Face::kLeft:  // normal -u
+      r = {c - hw * U - ht * V, Z, V, len, thickness};
+      break;
+    case Face::kButt:  // normal -z
+      r = {c - hw * U + ht * V, U, -1.0 * V, width, thickness};
+      break;
+    case Face::kTopEnd:  // normal +z
+      r = {c - hw * U - ht * V + len * Z, U, V, width, thickness};
+      break;
+  }
+  return r;
+}
+
+Status Board::validate() const {
+  for (double x : {cx, cy, width, thickness, rotation, z0, z1})
+    if (!std::isfinite(x)) return Error("board", "values must be finite numbers");
+  if (!(width > 0)) return Error("board", "width must be > 0 mm");
+  if (!(thickness > 0)) return Error("board", "thickness must be > 0 mm");
+  if (!(z1 > z0)) return Error("board", "z1 must be greater than z0");
+  return Status::Ok();
+}
+
+Result<Board> Board::from_string(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      size_t used = 0;
+      const double x = std::stod(item, &used);
+      while (used < item.size() && item[used] == ' ') ++used;
+      if (used != item.size()) throw std::invalid_argument(item);
+      v.push_back(x);
+    } catch (const std::exception&) {
+      return Error("--board", "'" + item + "' is not a number (expected x,y,w,t,rot,z0,z1)");
+    }
+  }
+  if (v.size() != 7)
+    return Error("--board", "expected 7 numbers x,y,w,t,rot,z0,z1 (mm, degrees), got " +
+                                std::to_string(v.size()));
+  Board b;
+  b.cx = v[0];
+  b.cy = v[1];
+  b.width = v[2];
+  b.thickness = v[3];
+  b.rotation = v[4] * kPi / 180.0;
+  b.z0 = v[5];
+  b.z1 = v[6];
+  if (Status st = b.validate(); !st) return Error("--board", st.error().message());
+  return b;
+}
+
+}  // namespace sawyer::render

@@ -1,0 +1,452 @@
+#include "sawyer/render/wood_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <vector>
+
+#include "gl.h"
+#include "gpu_log_data.h"
+#include "sawyer/render/image.h"
+#include "sawyer/render/shader_program.h"
+
+namespace sawyer::render {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kColorStrip = "wood_bar_color.bmp";
+constexpr const char* kNormalStrip = "wood_bar_normal.bmp";
+constexpr const char* kSpecularStrip = "wood_bar_specular.bmp";
+
+// One strip (pith → bark) as RGBA8: the middle row of the image.
+struct Strip {
+  int width = 0;
+  std::vector<std::uint8_t> rgba;
+};
+
+Result<Strip> load_strip(const fs::path& path) {
+  Result<Image> img = read_image(path);
+  if (!img) return img.error();
+  const Image& im = img.value();
+  Strip s;
+  s.width = im.width;
+  const int y = im.height / 2;
+  s.rgba.assign(im.u8.begin() + static_cast<std::ptrdiff_t>(y) * im.width * 4,
+                im.u8.begin() + static_cast<std::ptrdiff_t>(y + 1) * im.width * 4);
+  return s;
+}
+
+// A plain strip when no colour maps are at hand: pale earlywood, darker latewood, 40 rings.
+Strip builtin_strip(int which) {
+  Strip s;
+  s.width = 1024;
+  s.rgba.resize(4 * s.width);
+  for (int i = 0; i < s.width; ++i) {
+    const double t = (i + 0.5) / s.width;
+    const double phase = std::fmod(t * 40.0, 1.0);
+    const double late = phase > 0.6 ? std::min(1.0, (phase - 0.6) / 0.3) : 0.0;
+    double rgb[3];
+    if (which == 0) {
+      rgb[0] = 0.93 - 0.25 * late;
+      rgb[1] = 0.80 - 0.25 * late;
+      rgb[2] = 0.62 - 0.22 * late;
+    } else if (which == 1) {
+      rgb[0] = 0.5 + 0.15 * (late > 0 && late < 1 ? 1.0 : 0.0);
+      rgb[1] = 0.5;
+      rgb[2] = 1.0;
+    } else {
+      rgb[0] = rgb[1] = rgb[2] = 0.3 + 0.4 * late;
+    }
+    for (int c = 0; c < 3; ++c) s.rgba[4 * i + c] = static_cast<std::uint8_t>(rgb[c] * 255.0 + 0.5);
+    s.rgba[4 * i + 3] = 255;
+  }
+  return s;
+}
+
+fs::path default_color_maps() {
+  if (const char* env = std::getenv("SAWYER_COLOR_MAPS")) return env;
+  return SAWYER_RENDER_DATA_DIR;
+}
+
+struct Vertex {
+  float p[3];
+  float n[3];
+};
+
+void push_quad(std::vector<Vertex>& v, const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+               const Vec3& n) {
+  auto mk = [&](const Vec3& p) {
+    return Vertex{{static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)},
+                  {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)}};
+  };
+  v.push_back(mk(a));
+  v.push_back(mk(b));
+  v.push_back(mk(c));
+  v.push_back(mk(a));
+  v.push_back(mk(c));
+  v.push_back(mk(d));
+}
+
+void push_rect(std::vector<Vertex>& v, const PlaneRect& r) {
+  push_quad(v, r.at(0, 0), r.at(1, 0), r.at(1, 1), r.at(0, 1), r.normal());
+}
+
+}  // namespace
+
+Status RenderOptions::validate() const {
+  if (!(field.knot_noise >= 0 && field.knot_noise <= 0.5))
+    return Error("knot noise", "must be in [0, 0.5]");
+  if (!(index_dz_mm >= 1 && index_dz_mm <= 1000))
+    return Error("index_dz_mm", "must be in [1, 1000]");
+  if (!(index_dr_mm >= 1 && index_dr_mm <= 1000))
+    return Error("index_dr_mm", "must be in [1, 1000]");
+  if (index_sectors < 1 || index_sectors > 360)
+    return Error("index_sectors", "must be in [1, 360]");
+  return Status::Ok();
+}
+
+struct WoodRenderer::Impl {
+  const LogModel* log = nullptr;
+  RenderOptions options;
+  std::unique_ptr<WoodField> field;
+  GpuLogData data;
+  ShaderProgram program;
+  GLuint ssbo[5] = {};
+  GLuint stem_tex = 0, strip_tex[3] = {};
+  GLuint vao = 0, vbo = 0, surface_vbo = 0;
+  GLsizei surface_count = 0;
+
+  ~Impl() {
+    glDeleteBuffers(5, ssbo);
+    glDeleteTextures(1, &stem_tex);
+    glDeleteTextures(3, strip_tex);
+    glDeleteBuffers(1, &vbo);
+    glDeleteBuffers(1, &surface_vbo);
+    glDeleteVertexArrays(1, &vao);
+  }
+
+  template <typename T>
+  void upload_ssbo(int binding, const std::vector<T>& v) {
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, ssbo[binding]);
+    glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(v.size() * sizeof(T)), v.data(),
+                 GL_STATIC_DRAW);
+  }
+
+  void build_surface();
+  void set_uniforms(const Camera& cam, const Viewport& vp, const ShadeOptions& s);
+  void draw_vertices(const std::vector<Vertex>& v, float surface_tol);
+};
+
+void WoodRenderer::Impl::build_surface() {
+  const Stem& st = log->stem;
+  const int na = st.n_angles;
+  std::vector<double> zs;
+  zs.push_back(st.z_begin());
+  for (int i = 0; i < st.slice_count(); ++i) zs.push_back(st.z_at(i));
+  zs.push_back(st.z_end());
+  auto point = [&](int row, int k) {
+    const double z = zs[row];
+    const Vec2 c = st.pith_at(z);
+    const double w = kTwoPi * k / na;
+    const double R = st.radius_at(w, z);
+    return Vec3{c.x + R * std::cos(w), c.y + R * std::sin(w), z};
+  };
+  const int rows = static_cast<int>(zs.size());
+  std::vector<Vec3> grid(static_cast<size_t>(rows) * na);
+  for (int row = 0; row < rows; ++row)
+    for (int k = 0; k < na; ++k) grid[static_cast<size_t>(row) * na + k] = point(row, k);
+  auto at = [&](int row, int k) -> const Vec3& {
+    row = std::clamp(row, 0, rows - 1);
+    k = ((k % na) + na) % na;
+    return grid[static_cast<size_t>(row) * na + k];
+  };
+  auto normal = [&](int row, int k) {
+    const Vec3 dw = at(row, k + 1) - at(row, k - 1);
+    const Vec3 dz = at(row + 1, k) - at(row - 1, k);
+    return cross(dw, dz).normalized();
+  };
+  std::vector<Vertex> v;
+  v.reserve(static_cast<size_t>(rows) * na * 6);
+  auto mk = [&](int row, int k) {
+    const Vec3 p = at(row, k), n = normal(row, k);
+    return Vertex{{static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)},
+                  {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)}};
+  };
+  for (int row = 0; row + 1 < rows; ++row)
+    for (int k = 0; k < na; ++k) {
+      const Vertex a = mk(row, k), b = mk(row, k + 1), c = mk(row + 1, k + 1), d = mk(row + 1, k);
+      v.insert(v.end(), {a, b, c, a, c, d});
+    }
+  glGenBuffers(1, &surface_vbo);
+  glBindBuffer(GL_ARRAY_BUFFER, surface_vbo);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(v.size() * sizeof(Vertex)), v.data(),
+               GL_STATIC_DRAW);
+  surface_count = static_cast<GLsizei>(v.size());
+}
+
+void WoodRenderer::Impl::set_uniforms(const Camera& cam, const Viewport& vp,
+                                      const ShadeOptions& s) {
+  const GLuint p = program.id();
+  glUseProgram(p);
+  auto loc = [&](const char* n) { return glGetUniformLocation(p, n); };
+  const Mat4 vpm = cam.view_projection(vp.aspect());
+  glUniformMatrix4fv(loc("u_view_proj"), 1, GL_FALSE, vpm.m.data());
+  const GpuLogData& d = data;
+  glUniform1f(loc("u_pith_z0"), d.pith_z0);
+  glUniform1f(loc("u_pith_step"), d.pith_step);
+  glUniform1i(loc("u_pith_count"), static_cast<GLint>(d.pith.size() / 2));
+  glUniform1f(loc("u_stem_z0"), d.stem_z0);
+  glUniform1f(loc("u_stem_step"), d.stem_step);
+  glUniform1f(loc("u_stem_rows"), static_cast<float>(d.stem_rows));
+  glUniform1f(loc("u_r_ref"), d.r_ref);
+  glUniform1f(loc("u_knot_noise"), d.knot_noise);
+  glUniform1f(loc("u_track_step"), d.track_step);
+  glUniform1i(loc("u_knot_count"), static_cast<GLint>(log->knots.size()));
+  glUniform1f(loc("u_cell_z0"), d.index.z0);
+  glUniform1f(loc("u_cell_dz"), d.index.dz);
+  glUniform1i(loc("u_cell_nz"), d.index.nz);
+  glUniform1f(loc("u_cell_dr"), d.index.dr);
+  glUniform1i(loc("u_cell_nr"), d.index.nr);
+  glUniform1i(loc("u_cell_ns"), d.index.ns);
+  glUniform1i(loc("u_mode"), s.mode == ShadeMode::kTimeField ? 1 : 0);
+  glUniform1f(loc("u_z_begin"), d.z_begin);
+  glUniform1f(loc("u_z_end"), d.z_end);
+  const Vec3 eye = cam.eye(), fwd = cam.forward();
+  glUniform3f(loc("u_eye"), static_cast<float>(eye.x), static_cast<float>(eye.y),
+              static_cast<float>(eye.z));
+  glUniform3f(loc("u_view_dir"), static_cast<float>(fwd.x), static_cast<float>(fwd.y),
+              static_cast<float>(fwd.z));
+  glUniform1i(loc("u_ortho"), cam.projection_type == Camera::Projection::kOrthographic ? 1 : 0);
+  Vec3 right, up, back;
+  cam.axes(&right, &up, &back);
+  const Vec3 ld = s.light_dir.normalized();
+  const Vec3 l = (ld.x * right + ld.y * up + ld.z * back).normalized();
+  glUniform3f(loc("u_light_dir"), static_cast<float>(l.x), static_cast<float>(l.y),
+              static_cast<float>(l.z));
+  glUniform1f(loc("u_ambient"), s.ambient);
+  glUniform1f(loc("u_diffuse"), s.diffuse);
+  glUniform1f(loc("u_specular"), s.specular);
+  glUniform1i(loc("u_lighting"), s.lighting ? 1 : 0);
+  glUniform1f(loc("u_knot_darkening"), s.knot_darkening);
+  glUniform1f(loc("u_dead_outline"), s.dead_outline);
+  glUniform1i(loc("u_heartwood_tint"), s.heartwood_tint && d.has_heartwood ? 1 : 0);
+  for (int b = 0; b < 5; ++b) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, b, ssbo[b]);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, stem_tex);
+  for (int i = 0; i < 3; ++i) {
+    glActiveTexture(GL_TEXTURE1 + i);
+    glBindTexture(GL_TEXTURE_2D, strip_tex[i]);
+  }
+  glActiveTexture(GL_TEXTURE0);
+  glViewport(vp.x, vp.y, vp.width, vp.height);
+  glBindVertexArray(vao);
+}
+
+void WoodRenderer::Impl::draw_vertices(const std::vector<Vertex>& v, float surface_tol) {
+  if (v.empty()) return;
+  glUniform1f(glGetUniformLocation(program.id(), "u_surface_tol"), surface_tol);
+  glBindBuffer(GL_ARRAY_BUFFER, vbo);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(v.size() * sizeof(Vertex)), v.data(),
+               GL_STREAM_DRAW);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(Vertex), nullptr);
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, sizeof(Vertex),
+                        reinterpret_cast<const void*>(3 * sizeof(float)));
+  glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(v.size()));
+}
+
+WoodRenderer::WoodRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+WoodRenderer::~WoodRenderer() = default;
+
+Result<std::unique_ptr<WoodRenderer>> WoodRenderer::create(const LogModel& log,
+                                                           const RenderOptions& options) {
+  if (Status st = options.validate(); !st) return st.error();
+  if (log.stem.slice_count() < 1) return Error("log model", "the stem has no slices");
+  auto impl = std::make_unique<Impl>();
+  impl->log = &log;
+  impl->options = options;
+
+  // Colour strips first: a missing file is the likeliest user error.
+  Strip strips[3];
+  const bool given = !options.color_maps.empty();
+  const fs::path dir = given ? options.color_maps : default_color_maps();
+  const char* names[3] = {kColorStrip, kNormalStrip, kSpecularStrip};
+  std::error_code ec;
+  const bool have_dir = fs::is_directory(dir, ec);
+  if (given && !have_dir)
+    return Error(dir.string(), "no such folder (expected the wood colour strips)");
+  for (int i = 0; i < 3; ++i) {
+    if (have_dir) {
+      Result<Strip> s = load_strip(dir / names[i]);
+      if (!s) return s.error();
+      strips[i] = std::move(s).value();
+    } else {
+      strips[i] = builtin_strip(i);
+    }
+  }
+
+  Result<ShaderProgram> prog = ShaderProgram::build(
+      "wood.vert", "wood.frag",
+      options.knot_index ? std::vector<std::string>{"WOOD_INDEX 1"} : std::vector<std::string>{});
+  if (!prog) return prog.error();
+  impl->program = std::move(prog).value();
+
+  impl->field = std::make_unique<WoodField>(log, options.field);
+  GpuLayoutOptions lo;
+  lo.index_dz_mm = options.index_dz_mm;
+  lo.index_dr_mm = options.index_dr_mm;
+  lo.index_sectors = options.index_sectors;
+  impl->data = build_gpu_log_data(*impl->field, lo);
+  const GpuLogData& d = impl->data;
+
+  glGenBuffers(5, impl->ssbo);
+  impl->upload_ssbo(0, d.pith);
+  impl->upload_ssbo(1, d.tracks);
+  impl->upload_ssbo(2, d.knots);
+  impl->upload_ssbo(3, d.cell_start);
+  impl->upload_ssbo(4, d.cell_knots);
+
+  glGenTextures(1, &impl->stem_tex);
+  glBindTexture(GL_TEXTURE_2D, impl->stem_tex);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RG32F, d.stem_cols, d.stem_rows, 0, GL_RG, GL_FLOAT,
+               d.stem.data());
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+
+  glGenTextures(3, impl->strip_tex);
+  for (int i = 0; i < 3; ++i) {
+    glBindTexture(GL_TEXTURE_2D, impl->strip_tex[i]);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, strips[i].width, 1, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+                 strips[i].rgba.data());
+    glGenerateMipmap(GL_TEXTURE_2D);  // rings finer than a pixel blend (wood.frag)
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  }
+  glBindTexture(GL_TEXTURE_2D, 0);
+
+  glGenVertexArrays(1, &impl->vao);
+  glBindVertexArray(impl->vao);
+  glGenBuffers(1, &impl->vbo);
+  glBindBuffer(GL_ARRAY_BUFFER, impl->vbo);
+  glEnableVertexAttribArray(0);
+  glEnableVertexAttribArray(1);
+  glBindVertexArray(0);
+  if (glGetError() != GL_NO_ERROR) return Error("OpenGL", "uploading the log's data failed");
+  return std::unique_ptr<WoodRenderer>(new WoodRenderer(std::move(impl)));
+}
+
+void WoodRenderer::draw(const Scene& scene, const Camera& camera, const Viewport& viewport,
+                        const ShadeOptions& shade) {
+  Impl& m = *impl_;
+  m.set_uniforms(camera, viewport, shade);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  // Boards: closed boxes are drawn without their far sides.
+  std::vector<Vertex> v;
+  for (const Board& b : scene.boards)
+    for (unsigned bit = 1; bit <= 32; bit <<= 1)
+      if (scene.board_faces & bit) push_rect(v, b.face(static_cast<Face>(bit)));
+  const bool cull_boards = scene.cull_hidden && (scene.board_faces & kAllFaces) == kAllFaces;
+  if (cull_boards) glEnable(GL_CULL_FACE);
+  glCullFace(GL_BACK);
+  glFrontFace(GL_CCW);
+  m.draw_vertices(v, 5e-4f);
+  glDisable(GL_CULL_FACE);
+  v.clear();
+  const double R = m.data.max_radius * 1.02;
+  for (double z : scene.cross_sections) {
+    const Vec2 c = m.log->stem.pith_at(z);
+    PlaneRect r;
+    r.origin = {c.x - R, c.y - R, z};
+    r.u = {1, 0, 0};
+    r.v = {0, 1, 0};
+    r.width = r.height = 2 * R;
+    push_rect(v, r);
+  }
+  for (const LongitudinalSection& s : scene.longitudinal_sections) {
+    const double len = m.data.z_end - m.data.z_begin;
+    const Vec3 dir{std::cos(s.angle), std::sin(s.angle), 0},
+        nrm{-std::sin(s.angle), std::cos(s.angle), 0};
+    PlaneRect r;
+    const Vec2 c = m.data.mean_pith;
+    r.origin = Vec3{c.x, c.y, m.data.z_begin} + s.offset * nrm - R * dir;
+    r.u = {0, 0, 1};
+    r.v = dir;
+    r.width = len;
+    r.height = 2 * R;
+    push_rect(v, r);
+  }
+  for (const PlaneRect& p : scene.planes) push_rect(v, p);
+  m.draw_vertices(v, 5e-4f);
+  if (scene.log_surface) {
+    if (!m.surface_vbo) {
+      m.build_surface();
+      glBindVertexArray(m.vao);
+    }
+    glUniform1f(glGetUniformLocation(m.program.id(), "u_surface_tol"), 0.03f);
+    glUniform1f(glGetUniformLocation(m.program.id(), "u_z_begin"),
+                static_cast<float>(std::max<double>(m.data.z_begin, scene.surface_z0)));
+    glUniform1f(glGetUniformLocation(m.program.id(), "u_z_end"),
+                static_cast<float>(std::min<double>(m.data.z_end, scene.surface_z1)));
+    glBindBuffer(GL_ARRAY_BUFFER, m.surface_vbo);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(Vertex), nullptr);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, sizeof(Vertex),
+                          reinterpret_cast<const void*>(3 * sizeof(float)));
+    // Pull the surface slightly back so sections and boards drawn on it win the depth test.
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(1.0f, 1.0f);
+    if (scene.cull_hidden) glEnable(GL_CULL_FACE);
+    glDrawArrays(GL_TRIANGLES, 0, m.surface_count);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_POLYGON_OFFSET_FILL);
+  }
+  glBindVertexArray(0);
+}
+
+void WoodRenderer::draw_plane(const PlaneRect& rect, const Viewport& viewport,
+                              const ShadeOptions& shade) {
+  Impl& m = *impl_;
+  m.set_uniforms(Camera::plane_view(rect), viewport, shade);
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  // One triangle twice the rect's size, clipped by the viewport to exactly the rect.
+  std::vector<Vertex> v;
+  const Vec3 n = rect.normal();
+  for (const Vec3& p : {rect.at(0, 0), rect.at(2, 0), rect.at(0, 2)})
+    v.push_back(Vertex{{static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)},
+                       {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)}});
+  m.draw_vertices(v, 5e-4f);
+  glBindVertexArray(0);
+}
+
+const LogModel& WoodRenderer::log() const { return *impl_->log; }
+const RenderOptions& WoodRenderer::options() const { return impl_->options; }
+
+KnotIndexStats WoodRenderer::index_stats() const {
+  const GpuLogData& d = impl_->data;
+  KnotIndexStats s;
+  s.cells = d.index.cells();
+  s.entries = static_cast<long long>(d.cell_start.back());
+  s.mean_per_cell = s.cells ? static_cast<double>(s.entries) / s.cells : 0;
+  for (int c = 0; c < s.cells; ++c)
+    s.max_per_cell = std::max(s.max_per_cell, d.cell_start[c + 1] - d.cell_start[c]);
+  s.gpu_bytes = d.bytes();
+  return s;
+}
+
+Vec3 WoodRenderer::pith_point(double z) const {
+  const Vec2 c = impl_->data.mean_pith;
+  return {c.x, c.y, z};
+}
+
+double WoodRenderer::max_radius() const { return impl_->data.max_radius; }
+
+}  // namespace sawyer::render
