@@ -18,3 +18,10 @@ echo
 # Analysis of that scan: pith, outer shape, heartwood and knots, with QA images.
 rm -rf out/demo_scan
 build/apps/sawyer/sawyer scan out/demo_ct -o out/demo_scan
+echo
+# The scanned model rendered headless with the knotted-wood shader: the four long faces of a
+# 150 x 40 mm board 40 mm above the pith, over the scanned half metre (the scan's own frame:
+# z from 0 at its first slice).
+build/apps/sawyer/sawyer render out/demo_scan/log.json -o out/demo_board.png \
+  --board "0,40,150,40,0,0,500" --size 1200
+echo "board faces of the scanned log: out/demo_board.png"

@@ -205,6 +205,7 @@ TEST(RenderCli, BadInputGetsOneLineAndNoOutput) {
       {"render " + log + o + " --board 0,0,100,50,0,0,100 --face middle", "--face"},
       {"render " + log + " -o " + test::quoted(dir / "x.bmpx") + " --section 100", "x.bmpx"},
       {"render " + log + o + " --section 99999", "outside the log"},
+      {"render " + log + o + " --board 0,40,150,40,0,5000,5500", "misses the log"},
       {"render " + log + o, "exactly one of"},
       {"render " + log + o + " --section 100 --size 0x10", "--size"},
       {"render " + log + o + " --section 100 --field", ".exr"},

@@ -141,6 +141,14 @@ int run(const RenderCli& c) {
                                        mm(model.stem.z_begin()) + " to " + mm(model.stem.z_end()) +
                                        " mm)"));
 
+  // A board that misses the log would render as an empty image: refuse it instead.
+  for (const Board& b : boards)
+    if (b.z1 <= model.stem.z_begin() || b.z0 >= model.stem.z_end())
+      return fail(Error("--board", "z " + mm(b.z0) + " to " + mm(b.z1) +
+                                       " mm misses the log, which runs from " +
+                                       mm(model.stem.z_begin()) + " to " +
+                                       mm(model.stem.z_end()) + " mm"));
+
   const auto t0 = std::chrono::steady_clock::now();
   Result<std::unique_ptr<GlContext>> ctx = create_headless_context();
   if (!ctx) return fail(ctx.error());
