@@ -1,0 +1,150 @@
+// Virtual sawing: a log model at a position, cut by a pattern into boards, each with its length,
+// volume, wane and the knots on its four long sides (DESIGN.md section 9, docs/sawing.md).
+//
+// Frames (mm, degrees in the API): the pattern frame (u, v, z) has z along the log as in the log
+// model, origin on the log's mean pith line (the least-squares line through the pith samples),
+// v up. The log is turned about that line so that its horns point down at rotation 0:
+//   horns direction h = from the pith where it lies farthest from the chord between the end
+//   piths towards that chord (the way the two ends of a bowed log point). Rotation 0 puts h at
+//   −v (horns down, bow down); positive rotations turn the log counter-clockwise seen from +z.
+// The pattern is then shifted by the offset: a pattern point (u, v) lies at (u + x, v + y) in the
+// turned log's cross-section.
+//
+//   SawLog log(model);                      // precomputation, once per log
+//   Pattern p = two_ex_pattern({});
+//   if (Status s = check_pattern_fits(p, log.usable_diameter_mm(), model.id); !s) ...;
+//   SawResult r = saw(log, p, {.rotation_deg = 0});
+//   for (const Board& b : r.boards) ... b.volume_m3, b.knots ...
+//
+// Thread safety: SawLog is immutable after construction; saw() on one SawLog from many threads is
+// safe. The SawLog keeps a pointer to the model, which must outlive it.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "sawyer/core/vec.h"
+#include "sawyer/model/log_model.h"
+#include "sawyer/sawing/pattern.h"
+
+namespace sawyer::sawing {
+
+// The log's bow, from the pith track.
+struct BowInfo {
+  double height_mm = 0.0;            // largest distance of the pith from the end-to-end chord, mm
+  Vec2 horns_direction{0, -1};       // unit, scanner (x, y); (0, −1) when the log is straight
+  double horns_azimuth = 1.5 * kPi;  // atan2 of horns_direction, rad in [0, 2π)
+};
+BowInfo detect_bow(const Stem& stem);
+
+struct LogPosition {
+  double rotation_deg = 0.0;  // about the mean pith line; 0 = horns down
+  double offset_x_mm = 0.0;   // pattern shift in the turned cross-section
+  double offset_y_mm = 0.0;
+};
+
+// A log prepared for sawing many times: mean pith line, bow, usable diameter and per-knot axis
+// polylines relative to the mean pith line.
+class SawLog {
+ public:
+  explicit SawLog(const LogModel& model, int knot_samples = 48);
+
+  const LogModel& model() const { return *model_; }
+  const BowInfo& bow() const { return bow_; }
+  // Diameter of the largest circle about the pith inscribed in the top end (the end with the
+  // smaller mean radius), under bark, mm.
+  double usable_diameter_mm() const { return usable_diameter_mm_; }
+  // Mean pith line at height z (scanner x, y).
+  Vec2 line_at(double z) const {
+    return {line_p_.x + line_s_.x * (z - line_z_), line_p_.y + line_s_.y * (z - line_z_)};
+  }
+
+  // Internal tables, read by saw().
+  struct KnotPolyline {
+    int index = 0;              // into model().knots
+    std::vector<Vec3> q;        // axis point minus line_at(z), z kept; from the pith outwards
+    std::vector<double> r;      // pith distance of each point
+    double reach_mm = 0;        // max |q.xy| + half the largest diameter
+    double zmin = 0, zmax = 0;  // z extent widened by half the largest diameter
+    double half_dmax = 0;
+  };
+  const std::vector<KnotPolyline>& knots() const { return knots_; }
+  // True when scanner point (x, y) lies inside the outline of stem sample i (linear in angle).
+  bool inside(int slice, double x, double y) const;
+  // Pith distance of (x, y) minus the outline radius in its direction at stem sample i (mm;
+  // > 0 outside).
+  double outside_by(int slice, double x, double y) const;
+
+ private:
+  const LogModel* model_;
+  Vec2 line_p_, line_s_;
+  double line_z_ = 0;
+  BowInfo bow_;
+  double usable_diameter_mm_ = 0;
+  std::vector<KnotPolyline> knots_;
+  std::vector<double> rmin2_, rmax2_;  // squared radius range per stem sample
+};
+
+enum class Side { kFacePlus, kFaceMinus, kEdgePlus, kEdgeMinus };  // + / −: along the axis
+const char* side_name(Side s);
+enum class KnotKind { kFace, kEdge, kArris };  // arris: the knot's section reaches a corner
+const char* knot_kind_name(KnotKind k);
+
+// A knot where its axis crosses the plane of one long side of a board.
+struct KnotOnSide {
+  int knot = -1;  // index into LogModel::knots
+  int knot_id = 0;
+  Side side = Side::kFacePlus;
+  KnotKind kind = KnotKind::kFace;
+  double z_mm = 0;         // height of the crossing (log frame)
+  double along_mm = 0;     // z_mm − board z_begin
+  double across_mm = 0;    // from the side's centre line, in the pattern frame (+ = +u or +v)
+  double r_mm = 0;         // pith distance of the crossing
+  double diameter_mm = 0;  // knot diameter there, d(r)
+  double minor_mm = 0;     // ellipse axes of the section: minor = d(r),
+  double major_mm = 0;     //   major = d(r) / cos(angle between axis and side normal), ≤ 20·d
+  double width_mm = 0;     // extent across the side, clipped to the side (what grading measures)
+  double length_mm = 0;    // extent along the board
+  double angle_deg = 0;    // between the knot axis and the side plane (90 = perpendicular)
+  bool dead = false;       // r > r_dead
+};
+
+struct SideWane {
+  double max_mm = 0;     // largest wane across this side over the board's length
+  double length_mm = 0;  // length of board along which this side has wane
+};
+
+struct Board {
+  int spec = -1;  // index into Pattern::boards
+  std::string name;
+  double thickness_mm = 0, width_mm = 0;  // nominal (width after edging)
+  ThicknessAxis thickness_axis = ThicknessAxis::kU;
+  double u_mm = 0, v_mm = 0;      // centre in the pattern frame
+  double z_begin = 0, z_end = 0;  // trimmed, log frame
+  double length_mm() const { return z_end - z_begin; }
+  double box_volume_m3 = 0;       // thickness × width × length
+  double volume_m3 = 0;           // box minus wane (corner triangles per stem sample)
+  std::array<SideWane, 4> wane;   // by Side
+  std::vector<KnotOnSide> knots;  // by Side, then z
+  std::vector<int> hidden_knots;  // knot indices inside the board, on no side
+};
+
+struct DroppedBoard {
+  int spec = -1;
+  std::string reason;
+};
+
+struct SawResult {
+  std::vector<Board> boards;
+  std::vector<DroppedBoard> dropped;
+  double volume_m3 = 0;  // sum over boards
+};
+
+// Saws the log at `pos`. Each board is a box along z in the pattern frame; it is trimmed to the
+// longest run of stem samples where its wane keeps to pattern.wane (then to the length step,
+// centred in the run), edged boards take the standard width giving the most volume, and boards
+// shorter than min_length_mm are dropped. Does not check the fit (check_pattern_fits).
+SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos);
+
+}  // namespace sawyer::sawing

@@ -1,0 +1,443 @@
+#include "sawyer/sawing/sawing.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sawyer::sawing {
+
+const char* side_name(Side s) {
+  switch (s) {
+    case Side::kFacePlus:
+      return "face+";
+    case Side::kFaceMinus:
+      return "face-";
+    case Side::kEdgePlus:
+      return "edge+";
+    case Side::kEdgeMinus:
+      return "edge-";
+  }
+  return "?";
+}
+
+const char* knot_kind_name(KnotKind k) {
+  switch (k) {
+    case KnotKind::kFace:
+      return "face";
+    case KnotKind::kEdge:
+      return "edge";
+    case KnotKind::kArris:
+      return "arris";
+  }
+  return "?";
+}
+
+namespace {
+
+constexpr int kMaxRootSteps = 24;
+
+// Pattern frame <-> log frame for one position.
+struct Placement {
+  const SawLog* log;
+  double c = 1, s = 0;  // rotation by φ: log → pattern
+  double ox = 0, oy = 0;
+
+  // Pattern point (u, v) at stem sample i: inside the log's outline?
+  bool inside(int i, double u, double v) const {
+    const double pu = u + ox, pv = v + oy;
+    // q = Rot(−φ)·(pu, pv)
+    const double qx = c * pu + s * pv, qy = -s * pu + c * pv;
+    const Vec2 l = log->line_at(log->model().stem.z_at(i));
+    return log->inside(i, l.x + qx, l.y + qy);
+  }
+  double outside_by(int i, double u, double v) const {
+    const double pu = u + ox, pv = v + oy;
+    const double qx = c * pu + s * pv, qy = -s * pu + c * pv;
+    const Vec2 l = log->line_at(log->model().stem.z_at(i));
+    return log->outside_by(i, l.x + qx, l.y + qy);
+  }
+};
+
+// One board's cross-section in the pattern frame: centre, half sizes along the thickness and
+// width axes, and which pattern axis (0 = u, 1 = v) the thickness runs along.
+struct Section {
+  double cu, cv, ht, hw;
+  int ta;
+  void point(double a, double b, double* u, double* v) const {
+    if (ta == 0) {
+      *u = cu + a;
+      *v = cv + b;
+    } else {
+      *u = cu + b;
+      *v = cv + a;
+    }
+  }
+};
+
+// Lengths of segment P→Q (length len) lying outside the log, measured from each end.
+void outside_ends(const Placement& pl, int i, double pu, double pv, bool pin, double qu, double qv,
+                  bool qin, double len, double* out_p, double* out_q) {
+  *out_p = *out_q = 0;
+  if (pin && qin) return;
+  // Fraction of the way from an outside end A to an inside point B at which the outline is
+  // crossed: regula falsi (Illinois) on g = pith distance − outline radius, to 0.01 mm.
+  auto cross = [&](double au, double av, double bu, double bv) {
+    double lo = 0, hi = 1;  // g(lo) > 0 outside, g(hi) ≤ 0 inside
+    double glo = pl.outside_by(i, au, av), ghi = pl.outside_by(i, bu, bv);
+    const double seg = std::hypot(bu - au, bv - av);
+    int side = 0;
+    for (int k = 0; k < kMaxRootSteps && (hi - lo) * seg > 0.01; ++k) {
+      double m = (glo - ghi) > 1e-12 ? lo + (hi - lo) * glo / (glo - ghi) : 0.5 * (lo + hi);
+      m = std::clamp(m, lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo));
+      const double gm = pl.outside_by(i, au + m * (bu - au), av + m * (bv - av));
+      if (std::abs(gm) < 1e-4) return m;
+      if (gm > 0) {
+        lo = m;
+        glo = gm;
+        if (side == -1) ghi *= 0.5;
+        side = -1;
+      } else {
+        hi = m;
+        ghi = gm;
+        if (side == 1) glo *= 0.5;
+        side = 1;
+      }
+    }
+    return 0.5 * (lo + hi);
+  };
+  if (!pin && !qin) {
+    const double mu = 0.5 * (pu + qu), mv = 0.5 * (pv + qv);
+    if (!pl.inside(i, mu, mv)) {
+      *out_p = *out_q = 0.5 * len;
+      return;
+    }
+    *out_p = 0.5 * len * cross(pu, pv, mu, mv);
+    *out_q = 0.5 * len * cross(qu, qv, mu, mv);
+    return;
+  }
+  if (!pin)
+    *out_p = len * cross(pu, pv, qu, qv);
+  else
+    *out_q = len * cross(qu, qv, pu, pv);
+}
+
+struct SliceWane {
+  double side[4];  // wane across each Side, mm
+  double area;     // missing cross-section area, mm²
+  bool ok;
+};
+
+// Wane of a section at stem sample i.
+void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules, int i,
+                SliceWane* out) {
+  // Corners: 0 (+t, −w), 1 (+t, +w), 2 (−t, +w), 3 (−t, −w).
+  const double ca[4] = {sec.ht, sec.ht, -sec.ht, -sec.ht};
+  const double cb[4] = {-sec.hw, sec.hw, sec.hw, -sec.hw};
+  double cu[4], cv[4];
+  bool in[4];
+  for (int k = 0; k < 4; ++k) {
+    sec.point(ca[k], cb[k], &cu[k], &cv[k]);
+    in[k] = pl.inside(i, cu[k], cv[k]);
+  }
+  const double w = 2 * sec.hw, t = 2 * sec.ht;
+  SliceWane& sw = *out;
+  if (in[0] && in[1] && in[2] && in[3]) {  // a convex outline holding every corner: no wane
+    sw = SliceWane{{0, 0, 0, 0}, 0, true};
+    return;
+  }
+  // Sides as corner pairs: face+ 0→1, face− 3→2, edge+ 2→1, edge− 3→0 (P end first).
+  double e[4][2];
+  outside_ends(pl, i, cu[0], cv[0], in[0], cu[1], cv[1], in[1], w, &e[0][0], &e[0][1]);
+  outside_ends(pl, i, cu[3], cv[3], in[3], cu[2], cv[2], in[2], w, &e[1][0], &e[1][1]);
+  outside_ends(pl, i, cu[2], cv[2], in[2], cu[1], cv[1], in[1], t, &e[2][0], &e[2][1]);
+  outside_ends(pl, i, cu[3], cv[3], in[3], cu[0], cv[0], in[0], t, &e[3][0], &e[3][1]);
+  for (int k = 0; k < 4; ++k) sw.side[k] = e[k][0] + e[k][1];
+  // Missing area: a right triangle at each corner, legs = the wane on its face and edge ends.
+  sw.area = 0.5 * (e[0][1] * e[2][1] + e[0][0] * e[3][1] + e[1][1] * e[2][0] + e[1][0] * e[3][0]);
+  sw.ok = sw.side[0] <= rules.max_face_fraction * w && sw.side[1] <= rules.max_face_fraction * w &&
+          sw.side[2] <= rules.max_edge_fraction * t && sw.side[3] <= rules.max_edge_fraction * t &&
+          sw.side[0] < w && sw.side[1] < w && sw.side[2] < t && sw.side[3] < t;
+}
+
+// Wane of a section at every stem sample.
+void section_wane(const Placement& pl, const Section& sec, const WaneRules& rules,
+                  std::vector<SliceWane>* out) {
+  const int n = pl.log->model().stem.slice_count();
+  out->resize(n);
+  for (int i = 0; i < n; ++i) slice_wane(pl, sec, rules, i, &(*out)[i]);
+}
+
+// Longest run of acceptable samples, trimmed to the length step and centred in the run.
+// Returns false when nothing of at least the minimum length is left.
+bool trim(const Stem& stem, const std::vector<SliceWane>& sw, const WaneRules& rules, double* zb,
+          double* ze) {
+  int best0 = 0, best_n = 0, run0 = 0, run_n = 0;
+  for (int i = 0; i < static_cast<int>(sw.size()); ++i) {
+    if (sw[i].ok) {
+      if (run_n == 0) run0 = i;
+      if (++run_n > best_n) {
+        best_n = run_n;
+        best0 = run0;
+      }
+    } else {
+      run_n = 0;
+    }
+  }
+  if (best_n == 0) return false;
+  const double run = best_n * stem.dz_mm;
+  const double len = rules.length_step_mm > 0
+                         ? std::floor(run / rules.length_step_mm + 1e-9) * rules.length_step_mm
+                         : run;
+  if (len <= 0 || len < rules.min_length_mm) return false;
+  const double mid = stem.z_at(best0) - 0.5 * stem.dz_mm + 0.5 * run;
+  *zb = mid - 0.5 * len;
+  *ze = mid + 0.5 * len;
+  return true;
+}
+
+// A knot polyline in the pattern frame, with its bounding box widened by half its diameter.
+struct PlacedKnot {
+  int first = 0, count = 0;  // into pts / r
+  double lo[3], hi[3];
+};
+
+}  // namespace
+
+SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos) {
+  SawResult res;
+  const Stem& stem = log.model().stem;
+  const double phi = (1.5 * kPi - log.bow().horns_azimuth) + pos.rotation_deg * kPi / 180.0;
+  Placement pl{&log, std::cos(phi), std::sin(phi), pos.offset_x_mm, pos.offset_y_mm};
+
+  // Knot axes in the pattern frame: (u, v) = Rot(φ)·q − offset.
+  std::vector<Vec3> pts;
+  std::vector<PlacedKnot> placed(log.knots().size());
+  for (size_t k = 0; k < log.knots().size(); ++k) {
+    const SawLog::KnotPolyline& kp = log.knots()[k];
+    PlacedKnot& pk = placed[k];
+    pk.first = static_cast<int>(pts.size());
+    pk.count = static_cast<int>(kp.q.size());
+    for (int d = 0; d < 3; ++d) {
+      pk.lo[d] = 1e300;
+      pk.hi[d] = -1e300;
+    }
+    for (const Vec3& q : kp.q) {
+      const Vec3 p{pl.c * q.x - pl.s * q.y - pl.ox, pl.s * q.x + pl.c * q.y - pl.oy, q.z};
+      pts.push_back(p);
+      const double c3[3] = {p.x, p.y, p.z};
+      for (int d = 0; d < 3; ++d) {
+        pk.lo[d] = std::min(pk.lo[d], c3[d]);
+        pk.hi[d] = std::max(pk.hi[d], c3[d]);
+      }
+    }
+    for (int d = 0; d < 3; ++d) {
+      pk.lo[d] -= kp.half_dmax;
+      pk.hi[d] += kp.half_dmax;
+    }
+  }
+
+  std::vector<SliceWane> sw, best_sw;
+  std::vector<double> widths;
+  std::vector<int> widest;
+  std::vector<int> crossed(log.knots().size(), -1);
+  for (size_t bi = 0; bi < pattern.boards.size(); ++bi) {
+    const BoardSpec& spec = pattern.boards[bi];
+    Section sec{spec.u_mm, spec.v_mm, 0.5 * spec.thickness_mm, 0.5 * spec.width_mm,
+                spec.thickness_axis == ThicknessAxis::kU ? 0 : 1};
+    // Candidate widths: the spec's own, or for edged boards every standard width ≤ it.
+    widths.clear();
+    if (spec.edged)
+      for (double w : pattern.standard_widths_mm)
+        if (w <= spec.width_mm + 1e-9) widths.push_back(w);
+    if (widths.empty()) widths.push_back(spec.width_mm);
+    std::sort(widths.begin(), widths.end());
+    double best_value = 0, best_w = 0, best_zb = 0, best_ze = 0;
+    if (widths.size() == 1) {
+      best_w = widths[0];
+      sec.hw = 0.5 * best_w;
+      section_wane(pl, sec, pattern.wane, &best_sw);
+      if (trim(stem, best_sw, pattern.wane, &best_zb, &best_ze))
+        best_value = best_w * (best_ze - best_zb);
+    } else {
+      // Edging: at each stem sample the widest acceptable width, by bisection over the sorted
+      // widths (acceptance shrinks as the width grows on a convex outline); then the width whose
+      // trimmed board holds the most wood.
+      const int n = stem.slice_count(), m = static_cast<int>(widths.size());
+      widest.assign(n, -1);
+      SliceWane tmp;
+      for (int i = 0; i < n; ++i) {
+        int lo = -1, hi = m;  // widths[lo] acceptable (or none), widths[hi] not
+        while (hi - lo > 1) {
+          const int mid = (lo + hi) / 2;
+          sec.hw = 0.5 * widths[mid];
+          slice_wane(pl, sec, pattern.wane, i, &tmp);
+          (tmp.ok ? lo : hi) = mid;
+        }
+        widest[i] = lo;
+      }
+      for (int k = m - 1; k >= 0; --k) {
+        const double w = widths[k];
+        if (w * stem.length_mm() <= best_value) break;
+        sw.resize(n);
+        for (int i = 0; i < n; ++i) sw[i].ok = widest[i] >= k;
+        double zb, ze;
+        if (!trim(stem, sw, pattern.wane, &zb, &ze)) continue;
+        if (w * (ze - zb) > best_value) {
+          best_value = w * (ze - zb);
+          best_w = w;
+          best_zb = zb;
+          best_ze = ze;
+        }
+      }
+      if (best_value > 0) {
+        sec.hw = 0.5 * best_w;
+        section_wane(pl, sec, pattern.wane, &best_sw);
+      }
+    }
+    if (best_value <= 0) {
+      res.dropped.push_back(
+          {static_cast<int>(bi), "no length of at least " +
+                                     std::to_string(static_cast<int>(pattern.wane.min_length_mm)) +
+                                     " mm within the wane rules"});
+      continue;
+    }
+    sec.hw = 0.5 * best_w;
+    Board b;
+    b.spec = static_cast<int>(bi);
+    b.name = spec.name;
+    b.thickness_mm = spec.thickness_mm;
+    b.width_mm = best_w;
+    b.thickness_axis = spec.thickness_axis;
+    b.u_mm = spec.u_mm;
+    b.v_mm = spec.v_mm;
+    b.z_begin = best_zb;
+    b.z_end = best_ze;
+    b.box_volume_m3 = spec.thickness_mm * best_w * (best_ze - best_zb) * 1e-9;
+    double missing = 0;
+    for (int i = 0; i < stem.slice_count(); ++i) {
+      const double z = stem.z_at(i);
+      const double ov =
+          std::min(z + 0.5 * stem.dz_mm, best_ze) - std::max(z - 0.5 * stem.dz_mm, best_zb);
+      if (ov <= 0) continue;
+      missing += best_sw[i].area * ov;
+      for (int k = 0; k < 4; ++k) {
+        b.wane[k].max_mm = std::max(b.wane[k].max_mm, best_sw[i].side[k]);
+        if (best_sw[i].side[k] > 0) b.wane[k].length_mm += ov;
+      }
+    }
+    b.volume_m3 = b.box_volume_m3 - missing * 1e-9;
+
+    // Knots on the four long sides: where each axis polyline crosses a side's plane.
+    const int ta = sec.ta, wa = 1 - ta;
+    const double centre[2] = {sec.cu, sec.cv};
+    struct SidePlane {
+      Side side;
+      int axis;       // pattern axis of the plane normal
+      double c;       // plane coordinate
+      double e0, e1;  // extent across, along the other pattern axis
+    };
+    const SidePlane planes[4] = {
+        {Side::kFacePlus, ta, centre[ta] + sec.ht, centre[wa] - sec.hw, centre[wa] + sec.hw},
+        {Side::kFaceMinus, ta, centre[ta] - sec.ht, centre[wa] - sec.hw, centre[wa] + sec.hw},
+        {Side::kEdgePlus, wa, centre[wa] + sec.hw, centre[ta] - sec.ht, centre[ta] + sec.ht},
+        {Side::kEdgeMinus, wa, centre[wa] - sec.hw, centre[ta] - sec.ht, centre[ta] + sec.ht},
+    };
+    const double box_lo[2] = {sec.ta == 0 ? sec.cu - sec.ht : sec.cu - sec.hw,
+                              sec.ta == 0 ? sec.cv - sec.hw : sec.cv - sec.ht};
+    const double box_hi[2] = {2 * sec.cu - box_lo[0], 2 * sec.cv - box_lo[1]};
+    const int board_no = static_cast<int>(res.boards.size());
+    for (size_t k = 0; k < placed.size(); ++k) {
+      const PlacedKnot& pk = placed[k];
+      if (pk.hi[2] < best_zb || pk.lo[2] > best_ze) continue;
+      if (pk.hi[0] < box_lo[0] || pk.lo[0] > box_hi[0] || pk.hi[1] < box_lo[1] ||
+          pk.lo[1] > box_hi[1])
+        continue;
+      const SawLog::KnotPolyline& kp = log.knots()[k];
+      const Knot& knot = log.model().knots[kp.index];
+      for (const SidePlane& sp : planes) {
+        const int oa = 1 - sp.axis;
+        if (pk.hi[sp.axis] < sp.c || pk.lo[sp.axis] > sp.c) continue;
+        if (pk.hi[oa] < sp.e0 || pk.lo[oa] > sp.e1) continue;
+        auto coord = [&](int j, int axis) {
+          const Vec3& p = pts[pk.first + j];
+          return axis == 0 ? p.x : p.y;
+        };
+        double f0 = coord(0, sp.axis) - sp.c;
+        for (int j = 0; j + 1 < pk.count; ++j) {
+          const double f1 = coord(j + 1, sp.axis) - sp.c;
+          const bool crosses = (f0 < 0) != (f1 < 0);
+          const double fa = f0;
+          f0 = f1;
+          if (!crosses) continue;
+          const double t = fa / (fa - f1);
+          const Vec3& p0 = pts[pk.first + j];
+          const Vec3& p1 = pts[pk.first + j + 1];
+          const Vec3 x = p0 + t * (p1 - p0);
+          const double r = kp.r[j] + t * (kp.r[j + 1] - kp.r[j]);
+          const Vec3 d = (p1 - p0).normalized();
+          const double dn = std::abs(sp.axis == 0 ? d.x : d.y);  // cos(axis, normal)
+          const double dox = oa == 0 ? d.x : d.y;
+          const double D = knot.diameter_at(r);
+          const double minor = D, major = D / std::max(dn, 0.05);
+          // Ellipse in the side plane, coordinates (across, z): major axis along the axis's
+          // projection M, minor along m ⟂ M.
+          double Mo = dox, Mz = d.z;
+          const double mn = std::hypot(Mo, Mz);
+          if (mn < 1e-12) {
+            Mo = 1;
+            Mz = 0;
+          } else {
+            Mo /= mn;
+            Mz /= mn;
+          }
+          const double a = 0.5 * minor, bb = 0.5 * major;
+          const double ho = std::hypot(a * Mz, bb * Mo);  // m = (−Mz, Mo)
+          const double hz = std::hypot(a * Mo, bb * Mz);
+          const double xo = oa == 0 ? x.x : x.y;
+          if (xo + ho < sp.e0 || xo - ho > sp.e1) continue;
+          if (x.z + hz < best_zb || x.z - hz > best_ze) continue;
+          KnotOnSide ks;
+          ks.knot = kp.index;
+          ks.knot_id = knot.id;
+          ks.side = sp.side;
+          const bool arris = xo - ho < sp.e0 || xo + ho > sp.e1;
+          ks.kind =
+              arris ? KnotKind::kArris
+                    : (sp.side == Side::kFacePlus || sp.side == Side::kFaceMinus ? KnotKind::kFace
+                                                                                 : KnotKind::kEdge);
+          ks.z_mm = x.z;
+          ks.along_mm = x.z - best_zb;
+          ks.across_mm = xo - 0.5 * (sp.e0 + sp.e1);
+          ks.r_mm = r;
+          ks.diameter_mm = D;
+          ks.minor_mm = minor;
+          ks.major_mm = major;
+          ks.width_mm = std::min(xo + ho, sp.e1) - std::max(xo - ho, sp.e0);
+          ks.length_mm = 2 * hz;
+          ks.angle_deg = std::asin(std::min(dn, 1.0)) * 180.0 / kPi;
+          ks.dead = knot.dead_at(r);
+          b.knots.push_back(ks);
+          crossed[k] = board_no;
+        }
+      }
+      if (crossed[k] != board_no) {
+        // Not on any side: hidden when part of its axis lies inside the board.
+        for (int j = 0; j < pk.count; ++j) {
+          const Vec3& p = pts[pk.first + j];
+          if (p.x >= box_lo[0] && p.x <= box_hi[0] && p.y >= box_lo[1] && p.y <= box_hi[1] &&
+              p.z >= best_zb && p.z <= best_ze) {
+            b.hidden_knots.push_back(kp.index);
+            break;
+          }
+        }
+      }
+    }
+    std::sort(b.knots.begin(), b.knots.end(), [](const KnotOnSide& l, const KnotOnSide& r) {
+      return l.side != r.side ? l.side < r.side : l.z_mm < r.z_mm;
+    });
+    res.volume_m3 += b.volume_m3;
+    res.boards.push_back(std::move(b));
+  }
+  return res;
+}
+
+}  // namespace sawyer::sawing
