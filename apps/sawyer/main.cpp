@@ -11,6 +11,7 @@
 #ifdef SAWYER_HAVE_RENDER
 #include "cmd_render.h"
 #endif
+#include "cmd_saw.h"
 #include "cmd_scan.h"
 #include "ct_options.h"
 #include "log_source.h"
@@ -138,6 +139,8 @@ int main(int argc, char** argv) {
   app::add_phantom_command(app, run_phantom);
   std::function<int()> run_scan;
   app::add_scan_command(app, run_scan);
+  std::function<int()> run_saw;
+  app::add_saw_command(app, run_saw);
   std::function<int()> run_render;
 #ifdef SAWYER_HAVE_RENDER
   app::add_render_command(app, run_render);
@@ -153,6 +156,7 @@ int main(int argc, char** argv) {
   if (*convert) return cmd_convert(conv_in, conv_out, conv_format);
   if (run_phantom) return run_phantom();
   if (run_scan) return run_scan();
+  if (run_saw) return run_saw();
   if (run_render) return run_render();
   if (*generate)
     return cmd_generate(gen_species, gen_seed, gen_length_m, gen_top_mm, gen_position, gen_out);

@@ -1,0 +1,104 @@
+// Board grading from rule tables read from data files (DESIGN.md section 9, docs/sawing.md).
+//
+// A rule set is a list of grades, best first. Each grade limits, per face and per edge of a
+// board: the size of the largest sound and dead knot (allowed = mm + per_width × the side's
+// width, so limits scale with board size: Nordic style uses mm + per_width, GOST style
+// per_width only), the number of knots and of dead knots per metre of board and per board, and
+// the wane (fraction of the side's width and fraction of the board's length). A board gets the
+// best grade whose every rule holds; the rule that kept it out of the grade above is recorded.
+//
+//   Result<GradingRules> rules = read_grading_file("data/grading/nordic_appearance.json");
+//   BoardGrade g = grade_board(board, rules.value());
+//   std::cout << rules.value().grade_name(g.grade) << ": " << describe(g.limit, rules.value());
+//
+// Knot size is KnotOnSide::width_mm (extent across the side); knots narrower than
+// GradingRules::min_knot_mm are disregarded (neither sized nor counted). A knot is dead when
+// KnotOnSide::dead. Faces are Side::kFacePlus/kFaceMinus (side width = board width), edges the
+// other two (side width = board thickness).
+//
+// Thread safety: plain values; the free functions are reentrant.
+#pragma once
+
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "sawyer/core/result.h"
+#include "sawyer/sawing/sawing.h"
+
+namespace sawyer::sawing {
+
+constexpr double kNoLimit = std::numeric_limits<double>::infinity();
+
+// allowed = mm + per_width × side width (mm). Both infinite / absent: no limit.
+struct SizeLimit {
+  double mm = kNoLimit;
+  double per_width = 0.0;
+  double allowed(double side_width_mm) const { return mm + per_width * side_width_mm; }
+};
+
+struct SideRules {
+  SizeLimit sound_knot;
+  SizeLimit dead_knot;
+  double knots_per_m = kNoLimit;       // all knots on one side, per metre of board length
+  double dead_knots_per_m = kNoLimit;  // dead knots on one side, per metre
+  double knots_per_board = kNoLimit;   // all knots on one side, whole board
+  double wane_fraction = kNoLimit;     // largest wane / side width
+};
+
+struct GradeRule {
+  std::string name;
+  SideRules face, edge;
+  double wane_length_fraction = kNoLimit;  // length with wane (any side) / board length
+};
+
+struct GradingRules {
+  std::string name;
+  double min_knot_mm = 0.0;       // knots narrower than this across the side are disregarded
+  std::vector<GradeRule> grades;  // best first
+  int reject() const { return static_cast<int>(grades.size()); }  // the grade index of "reject"
+  std::string grade_name(int grade) const {
+    return grade < reject() ? grades[grade].name : "reject";
+  }
+  Status validate() const;  // ≥ 1 grade, unique names, limits ≥ 0 and not NaN
+};
+
+// Which rule failed.
+enum class LimitKind {
+  kNone,       // best grade
+  kSoundKnot,  // knot size over the limit
+  kDeadKnot,
+  kKnotCount,  // per metre
+  kDeadKnotCount,
+  kKnotsPerBoard,
+  kWane,
+  kWaneLength,
+};
+
+// The rule that kept a board out of grade `grade` (the one above its own), with what it measured.
+struct GradeLimit {
+  LimitKind kind = LimitKind::kNone;
+  int grade = -1;  // the grade that failed
+  Side side = Side::kFacePlus;
+  int knot = -1;          // index into Board::knots for knot size rules
+  double measured = 0.0;  // mm, count or fraction
+  double allowed = 0.0;
+  double along_mm = 0.0;  // knot position along the board
+};
+
+struct BoardGrade {
+  int grade = 0;  // index into GradingRules::grades; reject() when no grade holds
+  GradeLimit limit;
+};
+
+BoardGrade grade_board(const Board& board, const GradingRules& rules);
+// e.g. "dead knot 34 mm on face+ at 1.20 m > 25 mm allowed in A4"; "none" for kNone.
+std::string describe(const GradeLimit& limit, const GradingRules& rules);
+
+// The rule file, "sawyer-grading/1" (docs/sawing.md). Errors name the key; the file reader puts
+// the file name in front.
+Result<GradingRules> grading_from_json(const std::string& text);
+Result<GradingRules> read_grading_file(const std::filesystem::path& path);
+
+}  // namespace sawyer::sawing

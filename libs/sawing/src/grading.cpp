@@ -1,0 +1,288 @@
+// Board grading from rule tables, and the "sawyer-grading/1" reader.
+#include "sawyer/sawing/grading.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+
+#include "sawyer/core/file_util.h"
+
+namespace sawyer::sawing {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+constexpr const char* kGradingFormatTag = "sawyer-grading/1";
+
+bool is_face(Side s) { return s == Side::kFacePlus || s == Side::kFaceMinus; }
+
+// What one side holds, for the checks.
+struct SideStats {
+  int largest_sound = -1, largest_dead = -1;  // index into Board::knots
+  double sound_mm = 0, dead_mm = 0;
+  int count = 0, dead_count = 0;
+};
+
+bool limit_ok(double v) { return !std::isnan(v) && v >= 0; }
+
+Status check_side(const SideRules& s, const std::string& at) {
+  for (auto [key, v] : {std::pair{"sound_knot.mm", s.sound_knot.mm},
+                        {"sound_knot.per_width", s.sound_knot.per_width},
+                        {"dead_knot.mm", s.dead_knot.mm},
+                        {"dead_knot.per_width", s.dead_knot.per_width},
+                        {"knots_per_m", s.knots_per_m},
+                        {"dead_knots_per_m", s.dead_knots_per_m},
+                        {"knots_per_board", s.knots_per_board},
+                        {"wane_fraction", s.wane_fraction}})
+    if (!limit_ok(v)) return Error(at + "." + key, "must be a number ≥ 0");
+  return Status::Ok();
+}
+
+Status read_number(const Json& obj, const std::string& at, const char* key, double* dst) {
+  auto it = obj.find(key);
+  if (it == obj.end()) return Status::Ok();
+  const std::string here = at.empty() ? std::string(key) : at + "." + key;
+  if (!it->is_number()) return Error(here, "expected a number");
+  const double v = it->get<double>();
+  if (!std::isfinite(v) || v < 0) return Error(here, "expected a finite number ≥ 0");
+  *dst = v;
+  return Status::Ok();
+}
+
+Status read_size(const Json& obj, const std::string& at, const char* key, SizeLimit* dst) {
+  auto it = obj.find(key);
+  if (it == obj.end()) return Status::Ok();
+  const std::string here = at + "." + key;
+  if (!it->is_object()) return Error(here, "expected an object {\"mm\", \"per_width\"}");
+  for (auto& [k, v] : it->items())
+    if (k != "mm" && k != "per_width") return Error(here + "." + k, "unknown key");
+  dst->mm = 0;
+  if (Status s = read_number(*it, here, "mm", &dst->mm); !s) return s;
+  if (Status s = read_number(*it, here, "per_width", &dst->per_width); !s) return s;
+  return Status::Ok();
+}
+
+Status read_side(const Json& obj, const std::string& at, SideRules* dst) {
+  if (!obj.is_object()) return Error(at, "expected an object");
+  static const std::set<std::string> kKeys = {"sound_knot",      "dead_knot",
+                                              "knots_per_m",     "dead_knots_per_m",
+                                              "knots_per_board", "wane_fraction"};
+  for (auto& [k, v] : obj.items())
+    if (!kKeys.count(k)) return Error(at + "." + k, "unknown key");
+  if (Status s = read_size(obj, at, "sound_knot", &dst->sound_knot); !s) return s;
+  if (Status s = read_size(obj, at, "dead_knot", &dst->dead_knot); !s) return s;
+  for (auto [key, p] : {std::pair{"knots_per_m", &dst->knots_per_m},
+                        {"dead_knots_per_m", &dst->dead_knots_per_m},
+                        {"knots_per_board", &dst->knots_per_board},
+                        {"wane_fraction", &dst->wane_fraction}})
+    if (Status s = read_number(obj, at, key, p); !s) return s;
+  return Status::Ok();
+}
+
+const char* short_side(Side s) {
+  switch (s) {
+    case Side::kFacePlus:
+      return "face+";
+    case Side::kFaceMinus:
+      return "face-";
+    case Side::kEdgePlus:
+      return "edge+";
+    case Side::kEdgeMinus:
+      return "edge-";
+  }
+  return "?";
+}
+
+}  // namespace
+
+Status GradingRules::validate() const {
+  if (grades.empty()) return Error("grades", "no grade given");
+  if (!limit_ok(min_knot_mm) || std::isinf(min_knot_mm))
+    return Error("min_knot_mm", "must be a finite number ≥ 0");
+  std::set<std::string> names;
+  for (size_t i = 0; i < grades.size(); ++i) {
+    const GradeRule& g = grades[i];
+    const std::string at = "grades[" + std::to_string(i) + "]";
+    if (g.name.empty() || g.name == "reject") return Error(at + ".name", "empty or \"reject\"");
+    if (!names.insert(g.name).second) return Error(at + ".name", "'" + g.name + "' twice");
+    if (Status s = check_side(g.face, at + ".face"); !s) return s;
+    if (Status s = check_side(g.edge, at + ".edge"); !s) return s;
+    if (!limit_ok(g.wane_length_fraction))
+      return Error(at + ".wane_length_fraction", "must be a number ≥ 0");
+  }
+  return Status::Ok();
+}
+
+BoardGrade grade_board(const Board& board, const GradingRules& rules) {
+  std::array<SideStats, 4> st{};
+  for (size_t i = 0; i < board.knots.size(); ++i) {
+    const KnotOnSide& k = board.knots[i];
+    if (k.width_mm < rules.min_knot_mm) continue;
+    SideStats& s = st[static_cast<int>(k.side)];
+    ++s.count;
+    if (k.dead) {
+      ++s.dead_count;
+      if (k.width_mm > s.dead_mm || s.largest_dead < 0)
+        s.dead_mm = k.width_mm, s.largest_dead = static_cast<int>(i);
+    } else if (k.width_mm > s.sound_mm || s.largest_sound < 0) {
+      s.sound_mm = k.width_mm, s.largest_sound = static_cast<int>(i);
+    }
+  }
+  const double length_m = board.length_mm() * 1e-3;
+  double wane_length = 0;
+  for (const SideWane& w : board.wane) wane_length = std::max(wane_length, w.length_mm);
+  const double wane_length_fraction = board.length_mm() > 0 ? wane_length / board.length_mm() : 0;
+
+  BoardGrade out;
+  GradeLimit last;
+  for (int g = 0; g < rules.reject(); ++g) {
+    const GradeRule& rule = rules.grades[g];
+    GradeLimit fail;
+    fail.grade = g;
+    for (int si = 0; si < 4 && fail.kind == LimitKind::kNone; ++si) {
+      const Side side = static_cast<Side>(si);
+      const bool face = is_face(side);
+      const SideRules& r = face ? rule.face : rule.edge;
+      const double side_width = face ? board.width_mm : board.thickness_mm;
+      const SideStats& s = st[si];
+      fail.side = side;
+      auto knot_fail = [&](LimitKind kind, int knot, double allowed) {
+        fail.kind = kind;
+        fail.knot = knot;
+        fail.measured = board.knots[knot].width_mm;
+        fail.allowed = allowed;
+        fail.along_mm = board.knots[knot].along_mm;
+      };
+      auto count_fail = [&](LimitKind kind, double measured, double allowed) {
+        fail.kind = kind;
+        fail.measured = measured;
+        fail.allowed = allowed;
+      };
+      const double sound_allowed = r.sound_knot.allowed(side_width);
+      const double dead_allowed = r.dead_knot.allowed(side_width);
+      // Per-metre counts allow floor(per_m × board length in m) knots on the side.
+      const double per_m_allowed = std::floor(r.knots_per_m * length_m + 1e-9);
+      const double dead_per_m_allowed = std::floor(r.dead_knots_per_m * length_m + 1e-9);
+      if (s.largest_dead >= 0 && s.dead_mm > dead_allowed)
+        knot_fail(LimitKind::kDeadKnot, s.largest_dead, dead_allowed);
+      else if (s.largest_sound >= 0 && s.sound_mm > sound_allowed)
+        knot_fail(LimitKind::kSoundKnot, s.largest_sound, sound_allowed);
+      else if (s.dead_count > dead_per_m_allowed)
+        count_fail(LimitKind::kDeadKnotCount, s.dead_count, dead_per_m_allowed);
+      else if (s.count > per_m_allowed)
+        count_fail(LimitKind::kKnotCount, s.count, per_m_allowed);
+      else if (s.count > r.knots_per_board)
+        count_fail(LimitKind::kKnotsPerBoard, s.count, r.knots_per_board);
+      else if (side_width > 0 && board.wane[si].max_mm / side_width > r.wane_fraction)
+        count_fail(LimitKind::kWane, board.wane[si].max_mm / side_width, r.wane_fraction);
+    }
+    if (fail.kind == LimitKind::kNone && wane_length_fraction > rule.wane_length_fraction) {
+      fail.kind = LimitKind::kWaneLength;
+      fail.measured = wane_length_fraction;
+      fail.allowed = rule.wane_length_fraction;
+    }
+    if (fail.kind == LimitKind::kNone) {
+      out.grade = g;
+      out.limit = last;
+      return out;
+    }
+    last = fail;
+  }
+  out.grade = rules.reject();
+  out.limit = last;
+  return out;
+}
+
+std::string describe(const GradeLimit& l, const GradingRules& rules) {
+  if (l.kind == LimitKind::kNone) return "none";
+  const std::string grade = rules.grade_name(l.grade);
+  char buf[200];
+  switch (l.kind) {
+    case LimitKind::kSoundKnot:
+    case LimitKind::kDeadKnot:
+      std::snprintf(buf, sizeof buf, "%s knot %.1f mm on %s at %.2f m > %.1f mm allowed in %s",
+                    l.kind == LimitKind::kDeadKnot ? "dead" : "sound", l.measured,
+                    short_side(l.side), l.along_mm * 1e-3, l.allowed, grade.c_str());
+      break;
+    case LimitKind::kKnotCount:
+    case LimitKind::kDeadKnotCount:
+    case LimitKind::kKnotsPerBoard:
+      std::snprintf(buf, sizeof buf, "%.0f %sknots on %s > %.0f allowed in %s", l.measured,
+                    l.kind == LimitKind::kDeadKnotCount ? "dead " : "", short_side(l.side),
+                    l.allowed, grade.c_str());
+      break;
+    case LimitKind::kWane:
+      std::snprintf(buf, sizeof buf, "wane %.0f %% of %s > %.0f %% allowed in %s", 100 * l.measured,
+                    short_side(l.side), 100 * l.allowed, grade.c_str());
+      break;
+    case LimitKind::kWaneLength:
+      std::snprintf(buf, sizeof buf, "wane along %.0f %% of the length > %.0f %% allowed in %s",
+                    100 * l.measured, 100 * l.allowed, grade.c_str());
+      break;
+    case LimitKind::kNone:
+      break;
+  }
+  return buf;
+}
+
+Result<GradingRules> grading_from_json(const std::string& text) {
+  Json j;
+  try {
+    j = Json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    size_t line = 1;
+    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i)
+      if (text[i] == '\n') ++line;
+    return Error("line " + std::to_string(line), "malformed JSON");
+  }
+  if (!j.is_object()) return Error("top level", "expected a JSON object");
+  auto fmt = j.find("format");
+  if (fmt == j.end() || !fmt->is_string())
+    return Error("format", std::string("missing (expected \"") + kGradingFormatTag + "\")");
+  if (fmt->get<std::string>() != kGradingFormatTag)
+    return Error("format",
+                 "is \"" + fmt->get<std::string>() + "\", expected \"" + kGradingFormatTag + "\"");
+  GradingRules rules;
+  if (auto it = j.find("name"); it != j.end()) {
+    if (!it->is_string()) return Error("name", "expected a string");
+    rules.name = it->get<std::string>();
+  }
+  if (Status s = read_number(j, "", "min_knot_mm", &rules.min_knot_mm); !s) return s.error();
+  auto grades = j.find("grades");
+  if (grades == j.end() || !grades->is_array()) return Error("grades", "missing or not an array");
+  for (size_t i = 0; i < grades->size(); ++i) {
+    const Json& g = (*grades)[i];
+    const std::string at = "grades[" + std::to_string(i) + "]";
+    if (!g.is_object()) return Error(at, "expected an object");
+    GradeRule rule;
+    for (auto& [k, v] : g.items())
+      if (k != "name" && k != "face" && k != "edge" && k != "wane_length_fraction")
+        return Error(at + "." + k, "unknown key");
+    auto name = g.find("name");
+    if (name == g.end() || !name->is_string())
+      return Error(at + ".name", "missing or not a string");
+    rule.name = name->get<std::string>();
+    if (auto it = g.find("face"); it != g.end())
+      if (Status s = read_side(*it, at + ".face", &rule.face); !s) return s.error();
+    if (auto it = g.find("edge"); it != g.end())
+      if (Status s = read_side(*it, at + ".edge", &rule.edge); !s) return s.error();
+    if (Status s = read_number(g, at, "wane_length_fraction", &rule.wane_length_fraction); !s)
+      return s.error();
+    rules.grades.push_back(rule);
+  }
+  if (Status s = rules.validate(); !s) return s.error();
+  return rules;
+}
+
+Result<GradingRules> read_grading_file(const std::filesystem::path& path) {
+  Result<std::string> text = read_text_file(path);
+  if (!text) return text.error();
+  Result<GradingRules> r = grading_from_json(text.value());
+  if (!r) return r.error().with_context(path.string());
+  return r;
+}
+
+}  // namespace sawyer::sawing

@@ -1,0 +1,198 @@
+// Rotation × offset grid, parallel evaluation, Gaussian smoothing of the value surface.
+#include "sawyer/sawing/optimise.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <thread>
+
+namespace sawyer::sawing {
+
+namespace {
+
+bool whole(double ratio) { return std::abs(ratio - std::round(ratio)) < 1e-6; }
+
+std::vector<double> axis(double max, double step) {
+  std::vector<double> out;
+  if (max <= 0) return {0.0};
+  const int n = static_cast<int>(std::lround(max / step));
+  for (int i = -n; i <= n; ++i) out.push_back(i * step);
+  return out;
+}
+
+// Normalised Gaussian weights for offsets −radius..radius grid steps.
+std::vector<double> kernel(double sigma, double step, int max_radius) {
+  if (sigma <= 0) return {1.0};
+  const int radius = std::min(max_radius, static_cast<int>(std::ceil(3.0 * sigma / step)));
+  std::vector<double> w;
+  for (int k = -radius; k <= radius; ++k)
+    w.push_back(std::exp(-0.5 * std::pow(k * step / sigma, 2)));
+  return w;
+}
+
+// Truncated, renormalised smoothing of a line of n values with stride.
+void smooth_line(double* base, size_t n, size_t stride, const std::vector<double>& w,
+                 std::vector<double>& tmp) {
+  const int r = static_cast<int>(w.size() / 2);
+  tmp.assign(n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    double s = 0, ws = 0;
+    for (int k = -r; k <= r; ++k) {
+      const long j = static_cast<long>(i) + k;
+      if (j < 0 || j >= static_cast<long>(n)) continue;
+      s += w[k + r] * base[j * stride];
+      ws += w[k + r];
+    }
+    tmp[i] = s / ws;
+  }
+  for (size_t i = 0; i < n; ++i) base[i * stride] = tmp[i];
+}
+
+}  // namespace
+
+bool is_point_symmetric(const Pattern& p) {
+  auto near = [](double a, double b) { return std::abs(a - b) < 1e-6; };
+  for (const BoardSpec& b : p.boards) {
+    bool twin = false;
+    for (const BoardSpec& c : p.boards)
+      twin = twin || (near(c.u_mm, -b.u_mm) && near(c.v_mm, -b.v_mm) &&
+                      near(c.thickness_mm, b.thickness_mm) && near(c.width_mm, b.width_mm) &&
+                      c.thickness_axis == b.thickness_axis && c.edged == b.edged);
+    if (!twin) return false;
+  }
+  return true;
+}
+
+Status OptimiseOptions::validate(const Pattern& p) const {
+  if (!(rot_step_deg > 0)) return Error("rotation step", "must be > 0");
+  if (rot_range_deg != 0 && rot_range_deg != 180 && rot_range_deg != 360)
+    return Error("rotation range", "must be 180 or 360 (or 0: from the pattern's symmetry)");
+  if (rot_range_deg == 180 && !is_point_symmetric(p))
+    return Error("rotation range", "180° needs a point-symmetric pattern; '" + p.name + "' is not");
+  const double range = rot_range_deg != 0 ? rot_range_deg : (is_point_symmetric(p) ? 180 : 360);
+  if (!whole(range / rot_step_deg) || range / rot_step_deg < 1)
+    return Error("rotation step", "must divide " + std::to_string(static_cast<int>(range)) + "°");
+  for (auto [name, max, step] : {std::tuple{"offset x", offset_x_max_mm, offset_x_step_mm},
+                                 std::tuple{"offset y", offset_y_max_mm, offset_y_step_mm}}) {
+    if (!(max >= 0)) return Error(name, "range must be ≥ 0");
+    if (max > 0 && (!(step > 0) || !whole(max / step)))
+      return Error(name, "step must be > 0 and divide the range");
+  }
+  if (!(sigma_rot_deg >= 0) || !(sigma_offset_mm >= 0)) return Error("sigma", "must be ≥ 0");
+  if (threads < 0) return Error("threads", "must be ≥ 0");
+  return Status::Ok();
+}
+
+void smooth_value_surface(std::vector<double>& s, size_t nr, size_t nx, size_t ny,
+                          double rot_step_deg, double x_step_mm, double y_step_mm,
+                          double sigma_rot_deg, double sigma_offset_mm, bool mirror_on_wrap) {
+  auto at = [&](size_t ir, size_t ix, size_t iy) { return (ir * nx + ix) * ny + iy; };
+  // Rotation: circular; a wrap past the 180° range mirrors the offsets.
+  const std::vector<double> wr = kernel(sigma_rot_deg, rot_step_deg, static_cast<int>(nr) / 2);
+  if (wr.size() > 1) {
+    const std::vector<double> in = s;
+    const int r = static_cast<int>(wr.size() / 2);
+    for (size_t ir = 0; ir < nr; ++ir)
+      for (size_t ix = 0; ix < nx; ++ix)
+        for (size_t iy = 0; iy < ny; ++iy) {
+          double sum = 0, wsum = 0;
+          for (int k = -r; k <= r; ++k) {
+            wsum += wr[k + r];
+            const long j = static_cast<long>(ir) + k;
+            const long n = static_cast<long>(nr);
+            const long wraps = j < 0 ? (j - n + 1) / n : j / n;
+            const size_t jr = static_cast<size_t>(j - wraps * n);
+            const bool flip = mirror_on_wrap && (wraps % 2 != 0);
+            sum += wr[k + r] * in[at(jr, flip ? nx - 1 - ix : ix, flip ? ny - 1 - iy : iy)];
+          }
+          s[at(ir, ix, iy)] = sum / wsum;
+        }
+  }
+  std::vector<double> tmp;
+  const std::vector<double> wx = kernel(sigma_offset_mm, x_step_mm, static_cast<int>(nx));
+  if (nx > 1 && wx.size() > 1)
+    for (size_t ir = 0; ir < nr; ++ir)
+      for (size_t iy = 0; iy < ny; ++iy) smooth_line(&s[at(ir, 0, iy)], nx, ny, wx, tmp);
+  const std::vector<double> wy = kernel(sigma_offset_mm, y_step_mm, static_cast<int>(ny));
+  if (ny > 1 && wy.size() > 1)
+    for (size_t ir = 0; ir < nr; ++ir)
+      for (size_t ix = 0; ix < nx; ++ix) smooth_line(&s[at(ir, ix, 0)], ny, 1, wy, tmp);
+}
+
+Result<OptimiseResult> optimise_position(const SawLog& log, const Pattern& pattern,
+                                         const GradingRules& rules, const PriceTable& prices,
+                                         const OptimiseOptions& o,
+                                         const std::function<void(int, int)>& progress) {
+  if (Status s = o.validate(pattern); !s) return s.error();
+  OptimiseResult res;
+  res.symmetric = is_point_symmetric(pattern);
+  res.rot_range_deg = o.rot_range_deg != 0 ? o.rot_range_deg : (res.symmetric ? 180 : 360);
+  const int nr = static_cast<int>(std::lround(res.rot_range_deg / o.rot_step_deg));
+  for (int i = 0; i < nr; ++i) res.rotations_deg.push_back(i * o.rot_step_deg);
+  res.offsets_x_mm = axis(o.offset_x_max_mm, o.offset_x_step_mm);
+  res.offsets_y_mm = axis(o.offset_y_max_mm, o.offset_y_step_mm);
+  const size_t nx = res.offsets_x_mm.size(), ny = res.offsets_y_mm.size();
+  const int total = static_cast<int>(nr * nx * ny);
+  res.positions = total;
+  res.value.assign(total, 0.0);
+
+  auto position_of = [&](size_t i) {
+    const size_t iy = i % ny, ix = (i / ny) % nx, ir = i / (ny * nx);
+    return LogPosition{res.rotations_deg[ir], res.offsets_x_mm[ix], res.offsets_y_mm[iy]};
+  };
+  auto value_at = [&](const LogPosition& p) {
+    return value_of(saw(log, pattern, p), rules, prices).value;
+  };
+
+  res.threads = o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());
+  const auto t0 = std::chrono::steady_clock::now();
+  std::atomic<int> next{0}, done{0};
+  auto work = [&] {
+    for (int i; (i = next.fetch_add(1)) < total;) {
+      res.value[i] = value_at(position_of(i));
+      done.fetch_add(1);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < res.threads; ++t) pool.emplace_back(work);
+  while (progress && done.load() < total) {
+    progress(done.load(), total);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  for (std::thread& t : pool) t.join();
+  if (progress) progress(total, total);
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  res.smoothed = res.value;
+  smooth_value_surface(res.smoothed, nr, nx, ny, o.rot_step_deg, o.offset_x_step_mm,
+                       o.offset_y_step_mm, o.sigma_rot_deg, o.sigma_offset_mm,
+                       res.rot_range_deg == 180);
+
+  std::vector<int> order(total);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return res.smoothed[a] > res.smoothed[b]; });
+  for (int k = 0; k < std::min(total, std::max(1, o.ranked)); ++k)
+    res.ranked.push_back({position_of(order[k]), res.value[order[k]], res.smoothed[order[k]]});
+  res.best = res.ranked.front();
+  const int raw_best =
+      static_cast<int>(std::max_element(res.value.begin(), res.value.end()) - res.value.begin());
+  res.best_raw = {position_of(raw_best), res.value[raw_best], res.smoothed[raw_best]};
+
+  // Horns-down / horns-up at offset 0: raw from a direct saw, smoothed from the grid.
+  const size_t cx = (nx - 1) / 2, cy = (ny - 1) / 2;
+  res.horns_down = {LogPosition{0, 0, 0}, value_at({0, 0, 0}), res.smoothed[res.index(0, cx, cy)]};
+  const bool up_on_grid = whole(180.0 / o.rot_step_deg);
+  const size_t up_r =
+      res.rot_range_deg == 180 ? 0 : static_cast<size_t>(std::lround(180.0 / o.rot_step_deg));
+  res.horns_up = {LogPosition{180, 0, 0}, value_at({180, 0, 0}),
+                  up_on_grid ? res.smoothed[res.index(up_r, cx, cy)] : value_at({180, 0, 0})};
+  auto gain = [](double best, double ref) { return ref > 0 ? best / ref - 1.0 : 0.0; };
+  res.gain_over_horns_down = gain(res.best.smoothed, res.horns_down.smoothed);
+  res.gain_over_horns_up = gain(res.best.smoothed, res.horns_up.smoothed);
+  return res;
+}
+
+}  // namespace sawyer::sawing

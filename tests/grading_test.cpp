@@ -1,0 +1,250 @@
+// Board grading from rule tables and board value from price tables, on synthetic logs whose
+// knots cross the board sides at known places and sizes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "sawyer/sawing/grading.h"
+#include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/value.h"
+#include "sawyer/test/test_util.h"
+
+using namespace sawyer;
+using namespace sawyer::sawing;
+
+namespace {
+
+LogModel cylinder(double R, double length = 3000.0) {
+  LogModel log;
+  log.id = "synthetic";
+  log.stem.dz_mm = 10.0;
+  log.stem.z0_mm = 5.0;
+  log.stem.n_angles = 360;
+  for (int i = 0; i < static_cast<int>(length / 10.0); ++i) {
+    log.stem.pith.push_back({0, 0});
+    log.stem.radius.push_back(std::vector<double>(360, R));
+  }
+  return log;
+}
+
+// Straight horizontal knot along +x at height z0: d(r) = d_dead·r/r_dead up to r_dead, then
+// d_dead (dead).
+Knot knot_along_x(int id, double z0, double r_dead, double d_dead) {
+  Knot k;
+  k.id = id;
+  k.z0 = z0;
+  k.r_dead = r_dead;
+  k.r_end = 150.0;
+  k.diameter.d_dead = d_dead;
+  k.diameter.exponent = 1.0;
+  return k;
+}
+
+// One board centred on the pith, thickness along u: a knot along +x crosses face+ at r = t/2.
+Pattern centred_board(double thickness, double width) {
+  Pattern p;
+  p.name = "test";
+  p.wane.min_length_mm = 0;
+  p.wane.length_step_mm = 0;
+  BoardSpec b;
+  b.name = "b";
+  b.thickness_mm = thickness;
+  b.width_mm = width;
+  p.boards.push_back(b);
+  return p;
+}
+
+GradingRules rules_from(const std::string& json) {
+  Result<GradingRules> r = grading_from_json(json);
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message());
+  return r.ok() ? r.value() : GradingRules{};
+}
+
+// A: sound ≤ `sound_a`, dead ≤ 10 on faces; B: sound ≤ 40, dead ≤ 30; C: anything.
+std::string three_grades(double sound_a, double per_width_a = 0.0) {
+  return R"({"format": "sawyer-grading/1", "name": "t", "grades": [
+    {"name": "A", "face": {"sound_knot": {"mm": )" +
+         std::to_string(sound_a) + R"(, "per_width": )" + std::to_string(per_width_a) +
+         R"(}, "dead_knot": {"mm": 10}}},
+    {"name": "B", "face": {"sound_knot": {"mm": 40}, "dead_knot": {"mm": 30}}},
+    {"name": "C"}]})";
+}
+
+Board one_board(const LogModel& log, const Pattern& p) {
+  const SawLog saw_log(log);
+  const SawResult r = saw(saw_log, p, {});
+  EXPECT_EQ(r.boards.size(), 1u);
+  return r.boards.empty() ? Board{} : r.boards[0];
+}
+
+}  // namespace
+
+TEST(Grading, KnotOnAFaceAtALimitGradesOnBothSidesOfIt) {
+  LogModel log = cylinder(200.0);
+  log.knots.push_back(knot_along_x(3, 1500.0, 60.0, 60.0));  // d(20) = 20 mm, sound
+  const Board b = one_board(log, centred_board(40.0, 150.0));
+  ASSERT_EQ(b.knots.size(), 1u);
+  EXPECT_EQ(b.knots[0].side, Side::kFacePlus);
+  EXPECT_NEAR(b.knots[0].width_mm, 20.0, 1e-6);
+  EXPECT_FALSE(b.knots[0].dead);
+
+  const GradingRules above = rules_from(three_grades(20.01));
+  const BoardGrade ga = grade_board(b, above);
+  EXPECT_EQ(above.grade_name(ga.grade), "A");
+  EXPECT_EQ(ga.limit.kind, LimitKind::kNone);
+  EXPECT_EQ(describe(ga.limit, above), "none");
+
+  const GradingRules below = rules_from(three_grades(19.99));
+  const BoardGrade gb = grade_board(b, below);
+  EXPECT_EQ(below.grade_name(gb.grade), "B");
+  EXPECT_EQ(gb.limit.kind, LimitKind::kSoundKnot);
+  EXPECT_EQ(gb.limit.side, Side::kFacePlus);
+  EXPECT_NEAR(gb.limit.measured, 20.0, 1e-6);
+  EXPECT_NEAR(gb.limit.along_mm, 1500.0 - b.z_begin, 1e-6);
+  char along[16];
+  std::snprintf(along, sizeof along, "%.2f", (1500.0 - b.z_begin) * 1e-3);
+  EXPECT_EQ(describe(gb.limit, below),
+            "sound knot 20.0 mm on face+ at " + std::string(along) + " m > 20.0 mm allowed in A");
+}
+
+TEST(Grading, LimitsScaleWithBoardWidth) {
+  LogModel log = cylinder(200.0);
+  log.knots.push_back(knot_along_x(3, 1500.0, 60.0, 60.0));       // 20 mm on face+
+  const GradingRules rules = rules_from(three_grades(0.0, 0.2));  // A: sound ≤ 0.2 × width
+  // Width 150: 30 mm allowed; width 75: 15 mm.
+  EXPECT_EQ(grade_board(one_board(log, centred_board(40.0, 150.0)), rules).grade, 0);
+  const BoardGrade narrow = grade_board(one_board(log, centred_board(40.0, 75.0)), rules);
+  EXPECT_EQ(narrow.grade, 1);
+  EXPECT_NEAR(narrow.limit.allowed, 15.0, 1e-9);
+}
+
+TEST(Grading, DeadAndSoundKnotsOfTheSameSizeGradeDifferently) {
+  const GradingRules rules = rules_from(three_grades(25.0));  // A: sound ≤ 25, dead ≤ 10
+  LogModel sound = cylinder(200.0);
+  sound.knots.push_back(knot_along_x(1, 1500.0, 60.0, 60.0));  // 20 mm sound at r = 20
+  LogModel dead = cylinder(200.0);
+  dead.knots.push_back(knot_along_x(1, 1500.0, 10.0, 20.0));  // 20 mm dead (r > r_dead = 10)
+  const Board bs = one_board(sound, centred_board(40.0, 150.0));
+  const Board bd = one_board(dead, centred_board(40.0, 150.0));
+  ASSERT_EQ(bd.knots.size(), 1u);
+  EXPECT_TRUE(bd.knots[0].dead);
+  EXPECT_NEAR(bd.knots[0].width_mm, bs.knots[0].width_mm, 1e-6);
+  EXPECT_EQ(grade_board(bs, rules).grade, 0);
+  const BoardGrade gd = grade_board(bd, rules);
+  EXPECT_EQ(gd.grade, 1);
+  EXPECT_EQ(gd.limit.kind, LimitKind::kDeadKnot);
+  EXPECT_NE(describe(gd.limit, rules).find("dead knot 20.0 mm on face+"), std::string::npos);
+}
+
+TEST(Grading, KnotCountsPerMetre) {
+  LogModel log = cylinder(200.0);
+  for (int i = 0; i < 4; ++i) log.knots.push_back(knot_along_x(i, 400.0 + 700.0 * i, 60, 10));
+  const Board b = one_board(log, centred_board(40.0, 150.0));
+  ASSERT_EQ(b.knots.size(), 4u);
+  // 1 knot per metre on a 3 m board allows 3: one too many.
+  const GradingRules rules = rules_from(R"({"format": "sawyer-grading/1", "grades": [
+      {"name": "A", "face": {"knots_per_m": 1}}, {"name": "B"}]})");
+  const BoardGrade g = grade_board(b, rules);
+  EXPECT_EQ(g.grade, 1);
+  EXPECT_EQ(g.limit.kind, LimitKind::kKnotCount);
+  EXPECT_EQ(describe(g.limit, rules), "4 knots on face+ > 3 allowed in A");
+}
+
+TEST(Grading, ClearLogGradesBestOnEveryBoard) {
+  for (const char* file :
+       {"data/grading/nordic_appearance.json", "data/grading/gost_8486_like.json"}) {
+    SCOPED_TRACE(file);
+    Result<GradingRules> rules = read_grading_file(test::source_dir() / file);
+    ASSERT_TRUE(rules.ok()) << rules.error().message();
+    const LogModel log = cylinder(200.0);
+    const SawResult r = saw(SawLog(log), two_ex_pattern({}), {});
+    ASSERT_EQ(r.boards.size(), 4u);
+    for (const Board& b : r.boards) EXPECT_EQ(grade_board(b, rules.value()).grade, 0) << b.name;
+  }
+}
+
+TEST(Grading, BundledFilesReadAndPricesCoverTheirGrades) {
+  Result<PriceTable> prices =
+      read_price_file(test::source_dir() / "data/prices/example_prices.json");
+  ASSERT_TRUE(prices.ok()) << prices.error().message();
+  for (const char* file :
+       {"data/grading/nordic_appearance.json", "data/grading/gost_8486_like.json"}) {
+    Result<GradingRules> rules = read_grading_file(test::source_dir() / file);
+    ASSERT_TRUE(rules.ok()) << rules.error().message();
+    EXPECT_TRUE(prices.value().check_covers(rules.value()).ok()) << file;
+  }
+  EXPECT_EQ(read_grading_file(test::source_dir() / "data/grading/nordic_appearance.json")
+                .value()
+                .grades.size(),
+            7u);
+}
+
+TEST(Grading, BadRuleFilesNameTheKey) {
+  auto msg = [](const std::string& json) {
+    Result<GradingRules> r = grading_from_json(json);
+    return r.ok() ? std::string("ok") : r.error().message();
+  };
+  EXPECT_EQ(msg(R"({"grades": []})").rfind("format", 0), 0u);
+  EXPECT_EQ(msg(R"({"format": "sawyer-grading/1", "grades": []})"), "grades: no grade given");
+  EXPECT_EQ(
+      msg(R"({"format": "sawyer-grading/1", "grades": [{"name": "A", "face": {"sound_knot": {"mm": -1}}}]})"),
+      "grades[0].face.sound_knot.mm: expected a finite number ≥ 0");
+  EXPECT_EQ(
+      msg(R"({"format": "sawyer-grading/1", "grades": [{"name": "A", "face": {"knot": 1}}]})"),
+      "grades[0].face.knot: unknown key");
+  EXPECT_EQ(msg(R"({"format": "sawyer-grading/1", "grades": [{"name": "A"}, {"name": "A"}]})"),
+            "grades[1].name: 'A' twice");
+  Result<PriceTable> p =
+      prices_from_json(R"({"format": "sawyer-prices/1", "default": {"A": "x"}})");
+  ASSERT_FALSE(p.ok());
+  EXPECT_EQ(p.error().message(), "default.A: expected a price ≥ 0");
+}
+
+TEST(Value, BoardValueIsVolumeTimesPriceForItsGradeAndSize) {
+  LogModel log = cylinder(200.0);
+  log.knots.push_back(knot_along_x(3, 1500.0, 60.0, 60.0));
+  const SawResult r = saw(SawLog(log), centred_board(40.0, 150.0), {});
+  const GradingRules rules = rules_from(three_grades(19.0));  // the 20 mm knot: B
+  Result<PriceTable> prices = prices_from_json(R"({"format": "sawyer-prices/1",
+      "default": {"A": 500, "B": 300, "C": 100},
+      "dimensions": [{"thickness_mm": 150, "width_mm": 40, "prices": {"B": 320}}]})");
+  ASSERT_TRUE(prices.ok()) << prices.error().message();
+  const LogValue v = value_of(r, rules, prices.value());
+  ASSERT_EQ(v.boards.size(), 1u);
+  EXPECT_EQ(v.boards[0].grade.grade, 1);
+  EXPECT_DOUBLE_EQ(v.boards[0].price_per_m3, 320.0);  // dimension matched in either order
+  EXPECT_NEAR(v.value, r.boards[0].volume_m3 * 320.0, 1e-9);
+  EXPECT_FALSE(prices.value()
+                   .check_covers(rules_from(R"({"format": "sawyer-grading/1",
+      "grades": [{"name": "X"}]})"))
+                   .ok());
+}
+
+// The readers of outside files answer every damaged file with a value or an Error, never a crash:
+// each bundled file cut short at every byte, and with every byte replaced by a few others.
+TEST(Grading, DamagedFilesGiveAnErrorNotACrash) {
+  for (const char* file : {"data/grading/nordic_appearance.json",
+                           "data/grading/gost_8486_like.json", "data/prices/example_prices.json"}) {
+    std::ifstream in(test::source_dir() / file);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_FALSE(text.empty()) << file;
+    const bool prices = std::string(file).find("prices") != std::string::npos;
+    auto parse = [&](const std::string& t) {
+      if (prices) return prices_from_json(t).ok();
+      return grading_from_json(t).ok();
+    };
+    EXPECT_TRUE(parse(text)) << file;
+    for (size_t n = 0; n < text.size(); n += 7) EXPECT_FALSE(parse(text.substr(0, n))) << n;
+    for (size_t i = 0; i < text.size(); i += 3)
+      for (char c : {'-', '9', '"', '{', 'x'}) {
+        std::string t = text;
+        t[i] = c;
+        (void)parse(t);
+      }
+  }
+}

@@ -1,0 +1,194 @@
+// The log positioning optimiser: grid, smoothing and the best position on logs built so that the
+// answer is known.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "sawyer/sawing/grading.h"
+#include "sawyer/sawing/optimise.h"
+#include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/value.h"
+
+using namespace sawyer;
+using namespace sawyer::sawing;
+
+namespace {
+
+LogModel cylinder(double R, double length = 3000.0) {
+  LogModel log;
+  log.id = "synthetic";
+  log.stem.dz_mm = 10.0;
+  log.stem.z0_mm = 5.0;
+  log.stem.n_angles = 360;
+  for (int i = 0; i < static_cast<int>(length / 10.0); ++i) {
+    log.stem.pith.push_back({0, 0});
+    log.stem.radius.push_back(std::vector<double>(360, R));
+  }
+  return log;
+}
+
+// Straight horizontal knot at height z0 along scanner azimuth omega0 (rad): d(r) = 30·r/60 up to
+// r_dead = 60 mm, then 30 mm (dead).
+Knot straight_knot(int id, double z0, double omega0) {
+  Knot k;
+  k.id = id;
+  k.z0 = z0;
+  k.omega0 = omega0;
+  k.r_dead = 60.0;
+  k.r_end = 150.0;
+  k.diameter.d_dead = 30.0;
+  k.diameter.exponent = 1.0;
+  return k;
+}
+
+// A: sound face knots ≤ 13 mm, no dead knot over 10 mm anywhere; B: sound ≤ 20; C: anything.
+GradingRules test_rules() {
+  Result<GradingRules> r = grading_from_json(R"({"format": "sawyer-grading/1", "grades": [
+    {"name": "A", "face": {"sound_knot": {"mm": 13}, "dead_knot": {"mm": 10}},
+                  "edge": {"dead_knot": {"mm": 10}}},
+    {"name": "B", "face": {"sound_knot": {"mm": 20}, "dead_knot": {"mm": 10}},
+                  "edge": {"dead_knot": {"mm": 10}}},
+    {"name": "C"}]})");
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message());
+  return r.value();
+}
+
+PriceTable test_prices() {
+  Result<PriceTable> p = prices_from_json(
+      R"({"format": "sawyer-prices/1", "default": {"A": 500, "B": 300, "C": 100}})");
+  EXPECT_TRUE(p.ok());
+  return p.value();
+}
+
+Pattern centred_board() {
+  Pattern p;
+  p.name = "one board";
+  p.wane.min_length_mm = 0;
+  p.wane.length_step_mm = 0;
+  BoardSpec b;
+  b.name = "b";
+  b.thickness_mm = 50.0;  // faces at u = ±25
+  b.width_mm = 150.0;     // edges at v = ±75
+  p.boards.push_back(b);
+  return p;
+}
+
+}  // namespace
+
+TEST(Optimise, PatternSymmetryIsDetected) {
+  EXPECT_TRUE(is_point_symmetric(two_ex_pattern({})));
+  EXPECT_TRUE(is_point_symmetric(four_ex_pattern({})));
+  EXPECT_TRUE(is_point_symmetric(centred_board()));
+  Pattern off = centred_board();
+  off.boards[0].u_mm = 40.0;
+  EXPECT_FALSE(is_point_symmetric(off));
+  OptimiseOptions o;
+  o.rot_range_deg = 180;
+  EXPECT_FALSE(o.validate(off).ok());
+  EXPECT_TRUE(o.validate(centred_board()).ok());
+  o.rot_step_deg = 7;
+  EXPECT_FALSE(o.validate(centred_board()).ok());
+}
+
+// Knots along scanner azimuths 50° and 230° cross the faces of the centred board perpendicularly —
+// smallest, grade A — only when turned to pattern angle 0 / 180°: rotation 130° (mod 180). At
+// pattern angle φ the section across the face is (r_face / 2) / cos² φ with r_face = 25 ± x, so the
+// plateau of A (≤ 13 mm) is centred on 130° and, the worse of the two faces deciding, on x = 0.
+TEST(Optimise, FindsThePositionPlacedByConstruction) {
+  LogModel log = cylinder(200.0);
+  for (int i = 0; i < 4; ++i)
+    log.knots.push_back(straight_knot(i, 600.0 + 600.0 * i, (i % 2 ? 230.0 : 50.0) * kPi / 180));
+  const SawLog saw_log(log);
+  OptimiseOptions o;
+  o.threads = 2;
+  Result<OptimiseResult> r =
+      optimise_position(saw_log, centred_board(), test_rules(), test_prices(), o);
+  ASSERT_TRUE(r.ok()) << r.error().message();
+  const OptimiseResult& res = r.value();
+  EXPECT_TRUE(res.symmetric);
+  EXPECT_EQ(res.rot_range_deg, 180.0);
+  EXPECT_EQ(res.rotations_deg.size(), 90u);
+  EXPECT_EQ(res.offsets_x_mm.size(), 11u);
+  EXPECT_EQ(res.positions, 990);
+  EXPECT_NEAR(res.best.pos.rotation_deg, 130.0, 2.0 + 1e-9);
+  EXPECT_NEAR(res.best.pos.offset_x_mm, 0.0, 2.0 + 1e-9);
+  // Best: grade A; horns-down (pattern angle 50°): 12.5 / cos² 50° = 30.3 mm across the face: C.
+  const GradingRules rules = test_rules();
+  const LogValue best = value_of(saw(saw_log, centred_board(), res.best.pos), rules, test_prices());
+  ASSERT_EQ(best.boards.size(), 1u);
+  EXPECT_EQ(best.boards[0].grade.grade, 0);
+  const LogValue down = value_of(saw(saw_log, centred_board(), {}), rules, test_prices());
+  EXPECT_EQ(down.boards[0].grade.grade, 2);
+  EXPECT_NEAR(res.horns_down.value, down.value, 1e-9);
+  EXPECT_GT(res.gain_over_horns_down, 1.5);  // 500 vs 100 per m³, smoothed
+  EXPECT_FALSE(res.ranked.empty());
+  for (size_t i = 1; i < res.ranked.size(); ++i)
+    EXPECT_GE(res.ranked[i - 1].smoothed, res.ranked[i].smoothed);
+}
+
+TEST(Optimise, SmoothingMovesTheChoiceOffASharpIsolatedPeak) {
+  // 36 rotations of 10°: a broad plateau of 8 at 100..160°, one spike of 10 at 300°.
+  std::vector<double> s(36, 1.0);
+  for (int i = 10; i <= 16; ++i) s[i] = 8.0;
+  s[30] = 10.0;
+  const auto raw_best = std::max_element(s.begin(), s.end()) - s.begin();
+  EXPECT_EQ(raw_best, 30);
+  smooth_value_surface(s, 36, 1, 1, 10.0, 2.0, 2.0, 10.0, 2.0, false);
+  const auto smooth_best = std::max_element(s.begin(), s.end()) - s.begin();
+  EXPECT_EQ(smooth_best, 13);
+  EXPECT_LT(s[30], 8.0);
+  // Smoothing keeps the mean of a circular signal.
+  double mean = 0;
+  for (double v : s) mean += v / 36;
+  EXPECT_NEAR(mean, (7 * 8.0 + 10.0 + 28 * 1.0) / 36, 1e-9);
+}
+
+TEST(Optimise, SmoothingWrapsAcross180DegreesWithMirroredOffsets) {
+  // nr = 2 rotations × 3 offsets: a 180° wrap from rotation 1 lands on rotation 0 at −x.
+  std::vector<double> s = {0, 0, 6,  // rot 0: x = −1, 0, +1
+                           0, 0, 0};
+  smooth_value_surface(s, 2, 3, 1, 90.0, 1.0, 1.0, 90.0, 0.0, true);
+  // Rotation 1's neighbours at ±90° are rotation 0 (unmirrored, k = −1) and rotation 0 mirrored
+  // (k = +1): its +x cell gets weight from rot 0 at +x only, its −x cell from rot 0's +x.
+  EXPECT_GT(s[3 + 0], 0.0);
+  EXPECT_GT(s[3 + 2], 0.0);
+  EXPECT_NEAR(s[3 + 0], s[3 + 2], 1e-12);
+}
+
+TEST(Optimise, SymmetricPatternOnASymmetricLogRepeatsEvery180Degrees) {
+  LogModel log = cylinder(160.0);
+  const double az[] = {10, 75, 140, 200, 260, 330};
+  for (int i = 0; i < 6; ++i)
+    log.knots.push_back(straight_knot(i, 300.0 + 450.0 * i, az[i] * kPi / 180));
+  const SawLog saw_log(log);
+  Result<GradingRules> rules =
+      read_grading_file(std::string(SAWYER_SOURCE_DIR) + "/data/grading/nordic_appearance.json");
+  ASSERT_TRUE(rules.ok());
+  Result<PriceTable> prices =
+      read_price_file(std::string(SAWYER_SOURCE_DIR) + "/data/prices/example_prices.json");
+  ASSERT_TRUE(prices.ok());
+  OptimiseOptions o;
+  o.rot_range_deg = 360;
+  o.rot_step_deg = 5;
+  o.offset_x_max_mm = 4;
+  o.offset_x_step_mm = 2;
+  Result<OptimiseResult> r =
+      optimise_position(saw_log, two_ex_pattern({}), rules.value(), prices.value(), o);
+  ASSERT_TRUE(r.ok()) << r.error().message();
+  const OptimiseResult& res = r.value();
+  const size_t half = res.rotations_deg.size() / 2, nx = res.offsets_x_mm.size();
+  double spread = 0;
+  for (size_t ir = 0; ir < half; ++ir)
+    for (size_t ix = 0; ix < nx; ++ix) {
+      const double a = res.value[res.index(ir, ix, 0)];
+      const double b = res.value[res.index(ir + half, nx - 1 - ix, 0)];  // rot + 180°, −x
+      EXPECT_NEAR(a, b, 1e-6 * std::max(1.0, a))
+          << res.rotations_deg[ir] << " " << res.offsets_x_mm[ix];
+      spread = std::max(spread, std::abs(a - res.value[0]));
+    }
+  EXPECT_GT(spread, 0.0);  // the knots do matter
+  EXPECT_NEAR(res.horns_down.value, res.horns_up.value, 1e-6 * res.horns_down.value);
+}

@@ -1,0 +1,94 @@
+// `sawyer saw`: bad pattern, grading and price files give one line naming the file and key and
+// write nothing; a good run writes sawing.json with the ranked positions, boards and surface.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "sawyer/test/test_util.h"
+
+using namespace sawyer;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string gran1() { return test::quoted(test::sample_log("gran1_spruce") / "log.json"); }
+
+size_t lines(const std::string& s) {
+  size_t n = 0;
+  for (char ch : s) n += ch == '\n';
+  return n;
+}
+
+}  // namespace
+
+TEST(SawCli, BadGradingFileGivesOneLineNamingFileAndKeyAndWritesNothing) {
+  test::TempDir dir;
+  test::write_file(dir / "g.json", R"({"format": "sawyer-grading/1", "grades": [
+      {"name": "A", "face": {"sound_knot": {"mm": "big"}}}]})");
+  std::string out;
+  EXPECT_NE(test::run_sawyer("saw " + gran1() + " -q --grading " + test::quoted(dir / "g.json") +
+                                 " -o " + test::quoted(dir / "sawing.json"),
+                             &out),
+            0);
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_NE(out.find("g.json"), std::string::npos) << out;
+  EXPECT_NE(out.find("grades[0].face.sound_knot.mm"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "sawing.json"));
+}
+
+TEST(SawCli, BadPatternFileGivesOneLineNamingFileAndKeyAndWritesNothing) {
+  test::TempDir dir;
+  test::write_file(dir / "p.json", R"({"format": "sawyer-pattern/1", "kerf_mm": "x"})");
+  std::string out;
+  EXPECT_NE(test::run_sawyer("saw " + gran1() + " -q --pattern " + test::quoted(dir / "p.json") +
+                                 " -o " + test::quoted(dir / "sawing.json"),
+                             &out),
+            0);
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_NE(out.find("p.json"), std::string::npos) << out;
+  EXPECT_NE(out.find("kerf_mm"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "sawing.json"));
+}
+
+TEST(SawCli, PricesMissingAGradeAreRefused) {
+  test::TempDir dir;
+  test::write_file(dir / "prices.json", R"({"format": "sawyer-prices/1", "default": {"A1": 400}})");
+  std::string out;
+  EXPECT_NE(
+      test::run_sawyer("saw " + gran1() + " -q --prices " + test::quoted(dir / "prices.json") +
+                           " -o " + test::quoted(dir / "sawing.json"),
+                       &out),
+      0);
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_NE(out.find("prices.json: default.A2"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "sawing.json"));
+}
+
+TEST(SawCli, WritesRankedPositionsBoardsAndSurface) {
+  test::TempDir dir;
+  std::string out;
+  ASSERT_EQ(
+      test::run_sawyer("saw " + gran1() + " -q --rot-step 10 --grading gost --position 30,2 -o " +
+                           test::quoted(dir / "sawing.json"),
+                       &out),
+      0)
+      << out;
+  EXPECT_NE(out.find("gain of best over horns-down"), std::string::npos) << out;
+  std::ifstream in(dir / "sawing.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["format"], "sawyer-sawing/1");
+  EXPECT_EQ(j["surface"]["rotations_deg"].size(), 18u);  // 2ex is point-symmetric: 180° / 10°
+  EXPECT_EQ(j["surface"]["value"].size(), 18u * 11u);
+  EXPECT_GE(j["ranked"].size(), 1u);
+  EXPECT_GE(j["best"]["smoothed_value"].get<double>(),
+            j["horns_down"]["smoothed_value"].get<double>());
+  ASSERT_GE(j["boards"].size(), 1u);
+  EXPECT_TRUE(j["boards"][0].contains("grade"));
+  EXPECT_TRUE(j["boards"][0].contains("limited_by"));
+  EXPECT_TRUE(j["boards"][0]["knots"].is_array());
+  EXPECT_EQ(j["given_position"]["rotation_deg"], 30.0);
+}
