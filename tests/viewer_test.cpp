@@ -20,6 +20,9 @@
 
 #include "knot_mesh.h"
 #include "orbit_camera.h"
+#include "sawing_session.h"
+#include "sawyer/sawing/setup.h"
+#include "sawyer/model/log_json.h"
 #include "sawyer/render/image.h"
 #include "sawyer/test/test_util.h"
 
@@ -201,6 +204,137 @@ TEST(ViewerGeometry, PanKeepsThePointUnderTheCursorAndRotateStopsShortOfThePoles
   EXPECT_EQ(orbit.distance, orbit.min_distance);
 }
 
+// --- the sawing mode's logic ------------------------------------------------------------------
+
+double luminance(const std::array<unsigned char, 3>& c) {
+  return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
+
+TEST(ViewerSawing, HeatColoursGetLighterWithTheValueAndClampOutside) {
+  double last = -1;
+  for (int i = 0; i <= 100; ++i) {
+    const double l = luminance(heat_colour(i / 100.0));
+    EXPECT_GT(l, last) << "t " << i / 100.0;
+    last = l;
+  }
+  EXPECT_EQ(heat_colour(-3.0), heat_colour(0.0));
+  EXPECT_EQ(heat_colour(7.0), heat_colour(1.0));
+  EXPECT_EQ(heat_colour(std::nan("")), (std::array<unsigned char, 3>{128, 128, 128}));
+}
+
+TEST(ViewerSawing, GradeColoursRunFromGreenToOrangeAndRejectIsRed) {
+  const auto best = grade_colour(0, 7), last = grade_colour(6, 7), reject = grade_colour(7, 7);
+  EXPECT_GT(best[1], best[0]);  // green
+  EXPECT_GT(last[0], last[1]);  // orange
+  EXPECT_GT(reject[0], 200);    // red
+  EXPECT_LT(reject[1], 100);
+  EXPECT_NE(grade_colour(3, 7), best);
+  EXPECT_EQ(grade_colour(-1, 7), reject);
+}
+
+TEST(ViewerSawing, PositionParsesLikeTheSawCommand) {
+  Result<sawing::LogPosition> p = sawing::parse_position("20,4,-2");
+  ASSERT_TRUE(p.ok());
+  EXPECT_EQ(p.value().rotation_deg, 20);
+  EXPECT_EQ(p.value().offset_x_mm, 4);
+  EXPECT_EQ(p.value().offset_y_mm, -2);
+  EXPECT_TRUE(sawing::parse_position("15").ok());
+  for (const char* bad : {"", "a", "1,2,3,4", "1,,2", "1;2"})
+    EXPECT_FALSE(sawing::parse_position(bad).ok()) << bad;
+}
+
+TEST(ViewerSawing, SessionSawsValuesPlacesAndSavesThePosition) {
+  Result<LogModel> log = read_log_json(test::sample_log("gran1_spruce") / "log.json");
+  ASSERT_TRUE(log.ok()) << log.error().message();
+  Result<std::unique_ptr<SawingSession>> made =
+      SawingSession::create(log.value(), {"2ex", "nordic", ""});
+  ASSERT_TRUE(made.ok()) << made.error().message();
+  SawingSession& s = *made.value();
+  EXPECT_GT(s.horns_down_value(), 0);
+  EXPECT_NEAR(s.value().value, s.horns_down_value(), 1e-9);  // starts at horns-down
+  EXPECT_NEAR(s.gain_over_horns_down(), 0.0, 1e-12);
+
+  const sawing::LogPosition pos{20.0, 4.0, -2.0};
+  s.set_position(pos);
+  ASSERT_FALSE(s.sawn().boards.empty());
+  ASSERT_EQ(s.value().boards.size(), s.sawn().boards.size());
+  double sum = 0;
+  for (const sawing::BoardValue& b : s.value().boards) sum += b.value;
+  EXPECT_NEAR(s.value().value, sum, 1e-9);
+  EXPECT_NEAR(s.gain_over_horns_down(), s.value().value / s.horns_down_value() - 1.0, 1e-12);
+
+  // Each board in the scanner frame: its centre is the centre of its outline at mid-height, and
+  // its width and thickness run along the outline's sides.
+  for (size_t i = 0; i < s.sawn().boards.size(); ++i) {
+    const sawing::Board& b = s.sawn().boards[i];
+    const bool along_u = b.thickness_axis == sawing::ThicknessAxis::kU;
+    const double zm = 0.5 * (b.z_begin + b.z_end);
+    const std::array<Vec2, 4> c =
+        s.rect_in_scanner(b.u_mm, b.v_mm, along_u ? b.thickness_mm : b.width_mm,
+                          along_u ? b.width_mm : b.thickness_mm, zm);
+    const render::Board rb = s.board_in_scanner(i);
+    EXPECT_NEAR(0.25 * (c[0].x + c[1].x + c[2].x + c[3].x), rb.cx, 1e-6);
+    EXPECT_NEAR(0.25 * (c[0].y + c[1].y + c[2].y + c[3].y), rb.cy, 1e-6);
+    EXPECT_EQ(rb.width, b.width_mm);
+    EXPECT_EQ(rb.thickness, b.thickness_mm);
+    // The side from corner 0 to 1 runs along pattern u: the board's u when the thickness is
+    // along v, its v when the thickness is along u.
+    const Vec3 dir = along_u ? rb.v() : rb.u();
+    const double len = std::hypot(c[1].x - c[0].x, c[1].y - c[0].y);
+    EXPECT_NEAR(std::abs((c[1].x - c[0].x) * dir.x + (c[1].y - c[0].y) * dir.y), len, 1e-6);
+  }
+  // A drag on the section: the offset change it gives moves the pattern's outline by the drag.
+  const sawing::BoardSpec& spec = s.pattern().boards.front();
+  const std::array<Vec2, 4> before = s.rect_in_scanner(spec.u_mm, spec.v_mm, 50, 100, 2000);
+  const Vec2 d = s.scanner_to_pattern_delta(3.0, 4.0);
+  EXPECT_NEAR(std::hypot(d.x, d.y), 5.0, 1e-9);
+  s.set_position({pos.rotation_deg, pos.offset_x_mm + d.x, pos.offset_y_mm + d.y});
+  const std::array<Vec2, 4> after = s.rect_in_scanner(spec.u_mm, spec.v_mm, 50, 100, 2000);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(after[i].x - before[i].x, 3.0, 1e-9);
+    EXPECT_NEAR(after[i].y - before[i].y, 4.0, 1e-9);
+  }
+  s.set_position(pos);
+
+  test::TempDir dir;
+  const fs::path out = dir / "position.json";
+  ASSERT_TRUE(s.save(out, log.value().id).ok());
+  Result<sawing::LogPosition> back = read_saw_position(out);
+  ASSERT_TRUE(back.ok()) << back.error().message();
+  EXPECT_EQ(back.value().rotation_deg, pos.rotation_deg);
+  EXPECT_EQ(back.value().offset_x_mm, pos.offset_x_mm);
+  EXPECT_EQ(back.value().offset_y_mm, pos.offset_y_mm);
+  std::ifstream in(out);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(text, HasSubstr("\"format\": \"sawyer-sawing/1\""));
+  EXPECT_THAT(text, HasSubstr("\"given_position\""));
+  EXPECT_THAT(text, HasSubstr("\"limited_by\""));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1)
+      << "no temporary file left";
+
+  EXPECT_FALSE(read_saw_position(dir / "missing.json").ok());
+  {
+    std::ofstream bad(dir / "bad.json");
+    bad << "{\"given_position\": {\"rotation_deg\": 1}}";
+  }
+  Result<sawing::LogPosition> bad = read_saw_position(dir / "bad.json");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(bad.error().message(), HasSubstr("offset_x_mm"));
+}
+
+TEST(ViewerSawing, UnknownPatternOrGradingIsAnErrorNamingIt) {
+  Result<LogModel> log = read_log_json(test::sample_log("gran1_spruce") / "log.json");
+  ASSERT_TRUE(log.ok());
+  Result<std::unique_ptr<SawingSession>> p =
+      SawingSession::create(log.value(), {"no_such.pattern.json", "nordic", ""});
+  ASSERT_FALSE(p.ok());
+  EXPECT_THAT(p.error().message(), HasSubstr("no_such.pattern.json"));
+  Result<std::unique_ptr<SawingSession>> g =
+      SawingSession::create(log.value(), {"2ex", "no_such_grading.json", ""});
+  ASSERT_FALSE(g.ok());
+  EXPECT_THAT(g.error().message(), HasSubstr("no_such_grading.json"));
+}
+
 // --- the program --------------------------------------------------------------------------------
 
 std::string viewer_bin() {
@@ -309,6 +443,18 @@ class Xvfb {
   Xvfb server;                                                                            \
   ASSERT_FALSE(server.display().empty()) << "Xvfb did not start: " << server.log()
 
+// The viewer's window with `args`, saved by --screenshot to `png` and read back (an empty image,
+// reported, on failure).
+render::Image screenshot(const Xvfb& xvfb, const fs::path& png, const std::string& args) {
+  std::string out;
+  const int rc = run_viewer(args + " --screenshot " + test::quoted(png), &out, xvfb.display());
+  EXPECT_EQ(rc, 0) << out;
+  EXPECT_THAT(out, HasSubstr("wrote"));
+  Result<render::Image> img = render::read_image(png);
+  EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.error().message()) << out;
+  return img.ok() ? img.value() : render::Image{};
+}
+
 // Wood: warm, light, red above green above blue (the colour strip from pith to bark).
 bool is_wood(const render::Image& img, int x, int y) {
   const float r = img.value(x, y, 0), g = img.value(x, y, 1), b = img.value(x, y, 2);
@@ -333,16 +479,8 @@ TEST(Viewer, ScreenshotUnderXvfbShowsTheLogItsKnotsAndTheSections) {
   const std::string log = test::quoted(test::sample_log("gran1_spruce") / "log.json");
   const int w = 1024, h = 640;
   auto shoot = [&](const std::string& name, const std::string& extra) {
-    const fs::path png = dir / name;
-    std::string out;
-    const int rc = run_viewer(log + " --size " + std::to_string(w) + "x" + std::to_string(h) +
-                                  " --screenshot " + test::quoted(png) + extra,
-                              &out, xvfb.display());
-    EXPECT_EQ(rc, 0) << out;
-    EXPECT_THAT(out, HasSubstr("wrote"));
-    Result<render::Image> img = render::read_image(png);
-    EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.error().message());
-    return img.ok() ? img.value() : render::Image{};
+    return screenshot(xvfb, dir / name,
+                      log + " --size " + std::to_string(w) + "x" + std::to_string(h) + extra);
   };
   const render::Image full = shoot("full.png", "");
   ASSERT_EQ(full.width, w);
@@ -367,6 +505,54 @@ TEST(Viewer, ScreenshotUnderXvfbShowsTheLogItsKnotsAndTheSections) {
   EXPECT_GT(differing(full, no_surface, x0, y0, x1, y1), 5000) << "log surface in the 3D view";
   // Hiding things in the 3D view leaves the section and board panels (bottom right) as they were.
   EXPECT_LT(differing(full, no_knots, x0, h * 3 / 4, x1, h), 50);
+}
+
+TEST(Viewer, SawingModeDrawsThePatternOnTheSectionAndTheSawingPanel) {
+  REQUIRE_XVFB(xvfb);
+  test::TempDir dir;
+  const std::string log = test::quoted(test::sample_log("gran1_spruce") / "log.json");
+  const int w = 1024, h = 640;
+  auto shoot = [&](const std::string& name, const std::string& extra) {
+    return screenshot(xvfb, dir / name, log + " --size 1024x640" + extra);
+  };
+  const render::Image plain = shoot("plain.png", "");
+  const render::Image sawing = shoot("sawing.png", " --saw 2ex --position 20,4,-2");
+  const render::Image turned = shoot("turned.png", " --saw 2ex --position 65,4,-2");
+  ASSERT_EQ(plain.width, w);
+  ASSERT_EQ(sawing.width, w);
+  ASSERT_EQ(turned.width, w);
+  ASSERT_EQ(sawing.height, h);
+
+  // The cross-section panel (bottom left of the views, right of the 280-pixel controls): the
+  // pattern's grade-coloured boards replace the single board, and follow the rotation.
+  const int sx0 = 290, sx1 = 560, sy0 = 420, sy1 = h;
+  EXPECT_GT(differing(plain, sawing, sx0, sy0, sx1, sy1), 3000) << "boards on the section";
+  EXPECT_GT(differing(sawing, turned, sx0, sy0, sx1, sy1), 2000) << "boards turn with the log";
+  // Saturated grade colours (green to orange, red: reject) where the outlines are: strongly
+  // coloured, unlike the pale wood.
+  auto outline_pixels = [&](const render::Image& img) {
+    int n = 0;
+    for (int y = sy0; y < sy1; ++y)
+      for (int x = sx0; x < sx1; ++x) {
+        const float r = img.value(x, y, 0), g = img.value(x, y, 1), b = img.value(x, y, 2);
+        n += std::max(r, g) > 0.6f && std::max(r, g) - b > 0.45f ? 1 : 0;
+      }
+    return n;
+  };
+  EXPECT_GT(outline_pixels(sawing), outline_pixels(plain) + 1000);
+  // The sawing window over the top right (pattern, boards, value).
+  EXPECT_GT(differing(plain, sawing, w - 400, 40, w, 300), 5000) << "the sawing window";
+}
+
+TEST(Viewer, SawingOptionsAreCheckedBeforeAnyWindow) {
+  const std::string log = test::quoted(test::sample_log("gran1_spruce") / "log.json");
+  std::string out;
+  EXPECT_EQ(run_viewer(log + " --saw 2ex --position 1,x", &out), 1);
+  EXPECT_THAT(out, HasSubstr("--position"));
+  EXPECT_EQ(lines(out), 1) << out;
+  EXPECT_EQ(run_viewer(log + " --position 10", &out), 1);
+  EXPECT_THAT(out, HasSubstr("--saw"));
+  EXPECT_EQ(lines(out), 1) << out;
 }
 
 TEST(Viewer, BenchmarkPrintsTheFrameRateOfTheTypicalFrame) {

@@ -10,7 +10,6 @@
 #include <iostream>
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -20,6 +19,8 @@
 #include "sawyer/sawing/optimise.h"
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/sawing_json.h"
+#include "sawyer/sawing/setup.h"
 #include "sawyer/sawing/value.h"
 
 namespace sawyer::app {
@@ -40,97 +41,11 @@ int fail(const Error& e) {
   return 1;
 }
 
-fs::path data_file(const std::string& rel) { return fs::path(SAWYER_DATA_DIR) / rel; }
-
-Result<Pattern> load_pattern(const std::string& s) {
-  if (s == "2ex") return two_ex_pattern({});
-  if (s == "4ex") {
-    CantOptions c;
-    c.centre_thickness_mm = 38;
-    c.centre_width_mm = 100;
-    return four_ex_pattern(c);
-  }
-  if (s == "tt") return through_and_through_pattern(7, 25.0);
-  return read_pattern_file(s);
-}
-
-Result<GradingRules> load_grading(const std::string& s) {
-  if (s == "nordic") return read_grading_file(data_file("grading/nordic_appearance.json"));
-  if (s == "gost") return read_grading_file(data_file("grading/gost_8486_like.json"));
-  return read_grading_file(s);
-}
-
-Result<LogPosition> parse_position(const std::string& s) {
-  LogPosition p;
-  std::vector<double> v;
-  std::stringstream ss(s);
-  std::string part;
-  try {
-    while (std::getline(ss, part, ',')) {
-      size_t used = 0;
-      v.push_back(std::stod(part, &used));
-      if (used != part.size()) throw std::invalid_argument(part);
-    }
-  } catch (const std::exception&) {
-    v.clear();
-  }
-  if (v.empty() || v.size() > 3)
-    return Error("--position", "'" + s + "' is not rot[,x[,y]] (degrees, mm, mm)");
-  p.rotation_deg = v[0];
-  if (v.size() > 1) p.offset_x_mm = v[1];
-  if (v.size() > 2) p.offset_y_mm = v[2];
-  return p;
-}
-
-Json position_json(const LogPosition& p) {
-  return {{"rotation_deg", p.rotation_deg},
-          {"offset_x_mm", p.offset_x_mm},
-          {"offset_y_mm", p.offset_y_mm}};
-}
-
 Json ranked_json(const RankedPosition& r) {
   Json j = position_json(r.pos);
   j["value"] = r.value;
   j["smoothed_value"] = r.smoothed;
   return j;
-}
-
-Json boards_json(const SawResult& sawn, const LogValue& v, const GradingRules& rules) {
-  Json out = Json::array();
-  for (size_t i = 0; i < sawn.boards.size(); ++i) {
-    const Board& b = sawn.boards[i];
-    const BoardValue& bv = v.boards[i];
-    Json knots = Json::array();
-    for (const KnotOnSide& k : b.knots)
-      knots.push_back({{"knot_id", k.knot_id},
-                       {"side", side_name(k.side)},
-                       {"kind", knot_kind_name(k.kind)},
-                       {"along_mm", k.along_mm},
-                       {"across_mm", k.across_mm},
-                       {"width_mm", k.width_mm},
-                       {"minor_mm", k.minor_mm},
-                       {"major_mm", k.major_mm},
-                       {"dead", k.dead}});
-    Json wane = Json::array();
-    for (const SideWane& w : b.wane)
-      wane.push_back({{"max_mm", w.max_mm}, {"length_mm", w.length_mm}});
-    out.push_back({{"name", b.name},
-                   {"thickness_mm", b.thickness_mm},
-                   {"width_mm", b.width_mm},
-                   {"thickness_axis", b.thickness_axis == ThicknessAxis::kU ? "u" : "v"},
-                   {"u_mm", b.u_mm},
-                   {"v_mm", b.v_mm},
-                   {"z_begin_mm", b.z_begin},
-                   {"z_end_mm", b.z_end},
-                   {"volume_m3", b.volume_m3},
-                   {"grade", rules.grade_name(bv.grade.grade)},
-                   {"limited_by", describe(bv.grade.limit, rules)},
-                   {"price_per_m3", bv.price_per_m3},
-                   {"value", bv.value},
-                   {"wane", wane},
-                   {"knots", knots}});
-  }
-  return out;
 }
 
 void print_boards(const SawResult& sawn, const LogValue& v, const GradingRules& rules,
@@ -153,13 +68,13 @@ void print_boards(const SawResult& sawn, const LogValue& v, const GradingRules& 
 int run(const SawCli& c) {
   Result<LogModel> model = load_log(c.input);
   if (!model) return fail(model.error());
-  Result<Pattern> pattern = load_pattern(c.pattern);
+  Result<Pattern> pattern = pattern_by_name(c.pattern);
   if (!pattern) return fail(pattern.error());
-  Result<GradingRules> rules = load_grading(c.grading);
+  Result<GradingRules> rules = grading_by_name(c.grading);
   if (!rules) return fail(rules.error());
   const fs::path prices_path =
-      c.prices.empty() ? data_file("prices/example_prices.json") : fs::path(c.prices);
-  Result<PriceTable> prices = read_price_file(prices_path);
+      c.prices.empty() ? bundled_data_dir() / "prices/example_prices.json" : fs::path(c.prices);
+  Result<PriceTable> prices = prices_by_name(c.prices);
   if (!prices) return fail(prices.error());
   if (Status s = prices.value().check_covers(rules.value()); !s)
     return fail(s.error().with_context(prices_path.string()));
@@ -210,13 +125,13 @@ int run(const SawCli& c) {
   Json ranked = Json::array();
   for (const RankedPosition& p : r.ranked) ranked.push_back(ranked_json(p));
   j["ranked"] = ranked;
-  j["boards"] = boards_json(best_sawn, best_value, rules.value());
+  j["boards"] = boards_json(best_sawn, best_value, rules.value(), true);
   if (given) {
     const SawResult gs = saw(saw_log, pattern.value(), *given);
     const LogValue gv = value_of(gs, rules.value(), prices.value());
     j["given_position"] = position_json(*given);
     j["given_position"]["value"] = gv.value;
-    j["given_position"]["boards"] = boards_json(gs, gv, rules.value());
+    j["given_position"]["boards"] = boards_json(gs, gv, rules.value(), true);
   }
   j["surface"] = {{"index", "(rotation × offsets_x + x) × offsets_y + y"},
                   {"rotations_deg", r.rotations_deg},

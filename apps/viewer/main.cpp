@@ -28,6 +28,7 @@
 #include "sawyer/render/glfw_window.h"
 #include "sawyer/render/image.h"
 #include "sawyer/render/scene.h"
+#include "sawyer/sawing/setup.h"
 #include "viewer.h"
 
 namespace fs = std::filesystem;
@@ -56,6 +57,8 @@ double now_ms() {
 
 struct Cli {
   std::string log_path, screenshot, size = "1280x800", board, hide, show, surface = "auto";
+  std::string saw, grading = "nordic", prices, position;
+  bool optimise = false;
   int frames = 3, bench_frames = 0;
   std::optional<double> section_z, longitudinal_deg, opacity;
   bool cut = false, hidden = false;
@@ -222,6 +225,17 @@ int main(int argc, char** argv) {
                  "Hide parts of the 3D view, comma separated: surface, knots, section, board");
   app.add_option("--show", cli.show,
                  "Show more in the 3D view, comma separated: longitudinal, pith");
+  app.add_option("--saw", cli.saw,
+                 "Start in the sawing mode with this pattern: 2ex | 4ex | tt | a "
+                 "sawyer-pattern/1 file");
+  app.add_option("--grading", cli.grading, "Sawing mode: nordic | gost | a sawyer-grading/1 file")
+      ->capture_default_str();
+  app.add_option("--prices", cli.prices,
+                 "Sawing mode: a sawyer-prices/1 file (default: data/prices/example_prices.json)");
+  app.add_option("--position", cli.position,
+                 "Sawing mode: the log's position rot[,x[,y]] (degrees, mm, mm)");
+  app.add_flag("--optimise", cli.optimise,
+               "Sawing mode: run the position optimiser at the start (waits for it)");
   app.add_flag("--hidden", cli.hidden,
                "Keep the window hidden (with --screenshot or --bench-frames; some drivers "
                "leave a hidden window's pixels undefined)");
@@ -264,6 +278,15 @@ int main(int argc, char** argv) {
   }
   if (!cli.screenshot.empty() && !render::is_image_extension(cli.screenshot))
     return fail(cli.screenshot + ": unknown image extension (use .png, .tif, .jpg or .exr)");
+
+  sawing::LogPosition saw_position;
+  if (!cli.position.empty()) {
+    Result<sawing::LogPosition> p = sawing::parse_position(cli.position);
+    if (!p) return fail(p.error().message());
+    saw_position = p.value();
+  }
+  if (cli.saw.empty() && (!cli.position.empty() || cli.optimise))
+    return fail("--position and --optimise need --saw PATTERN");
 
   // The log first: a bad file is reported without needing a display.
   Result<LogModel> log = read_log_json(cli.log_path);
@@ -313,8 +336,16 @@ int main(int argc, char** argv) {
       s.show_longitudinal = shown.show_longitudinal;
       s.show_pith = shown.show_pith;
       if (cli.surface != "auto") s.wood_surface = cli.surface == "wood";
+      if (!cli.saw.empty()) {
+        if (Status saw =
+                v.start_sawing({cli.saw, cli.grading, cli.prices}, saw_position, cli.optimise);
+            !saw)
+          rc = fail(saw.error().message());
+      }
 
-      if (cli.bench_frames > 0) {
+      if (rc != 0) {
+        // --saw failed: reported above.
+      } else if (cli.bench_frames > 0) {
         rc = bench(v, win, cli.bench_frames, cli.log_path);
       } else if (!cli.screenshot.empty()) {
         for (int i = 0; i < cli.frames; ++i) {

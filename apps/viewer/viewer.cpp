@@ -13,6 +13,7 @@
 #include <sstream>
 #include <utility>
 
+#include "sawing_panel.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/render/framebuffer.h"
 #include "sawyer/render/gl_context.h"
@@ -123,12 +124,15 @@ Result<std::unique_ptr<Viewer>> Viewer::create(std::unique_ptr<LogModel> log,
 }
 
 Viewer::~Viewer() {
+  sawing_.reset();    // waits for the optimiser, which reads the log
   renderer_.reset();  // before the log it points to
 }
 
 Status Viewer::load(std::unique_ptr<LogModel> log, const fs::path& path) {
   Result<std::unique_ptr<render::WoodRenderer>> r = render::WoodRenderer::create(*log);
   if (!r) return r.error().with_context(path.string());
+  sawing_.reset();  // it refers to the old log
+  sawing_mode_ = false;
   renderer_ = std::move(r).value();  // the old renderer goes before the old log
   log_ = std::move(log);
   path_ = path;
@@ -204,6 +208,39 @@ void Viewer::step_section(double mm) {
   state_.section_z = std::clamp(state_.section_z + mm, st.z_begin(), st.z_end());
 }
 
+Status Viewer::start_sawing(const SawingChoice& choice, const sawing::LogPosition& pos,
+                            bool optimise) {
+  auto panel = std::make_unique<SawingPanel>(*log_, path_);
+  if (Status s = panel->start(choice, pos); !s) return s;
+  if (optimise) panel->optimise(true);
+  sawing_ = std::move(panel);
+  sawing_mode_ = true;
+  return Status::Ok();
+}
+
+// The sawing window over the right of the 3D view.
+void Viewer::ui_sawing(float x, float y, float w, float h) {
+  if (!sawing_mode_) return;
+  if (!sawing_) {
+    sawing_ = std::make_unique<SawingPanel>(*log_, path_);
+    (void)sawing_->start({}, {});
+  }
+  ImGui::SetNextWindowPos(ImVec2(x, y), ImGuiCond_Always);
+  ImGui::SetNextWindowSize(ImVec2(w, h), ImGuiCond_Always);
+  ImGui::SetNextWindowBgAlpha(0.92f);
+  ImGui::Begin("Sawing", nullptr,
+               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+  sawing_->ui();
+  ImGui::End();
+  if (sawing_->take_changed()) {
+    if (std::optional<Board> b = sawing_->selected_board()) {
+      state_.board = *b;
+      const double zc = 0.5 * (b->z0 + b->z1);
+      if (state_.section_z < b->z0 || state_.section_z > b->z1) state_.section_z = zc;
+    }
+  }
+}
+
 void Viewer::request_screenshot() {
   fs::path p = screenshot_text_.empty() ? fs::path("sawyer-view.png") : fs::path(screenshot_text_);
   screenshot_request_ = p;
@@ -247,6 +284,8 @@ void Viewer::frame(const FrameRequest& req) {
 
   handle_input(left_w, 0, main_w, view_h, req.keys);
   ui_controls(0, 0, left_w, H);
+  const float saw_w = std::min(main_w, 470.0f);
+  ui_sawing(left_w + main_w - saw_w, 0, saw_w, view_h);
   ui_panels(left_w, view_h, main_w, strip_h);
   times_.ui_build = now_ms() - t0;
 
@@ -461,6 +500,12 @@ void Viewer::ui_controls(float x, float y, float w, float h) {
     if (ImGui::Button("Frame the board (F)")) frame_board();
   }
 
+  if (ImGui::CollapsingHeader("Sawing", ImGuiTreeNodeFlags_DefaultOpen)) {
+    ImGui::Checkbox("sawing mode", &sawing_mode_);
+    ImGui::SameLine();
+    ImGui::TextDisabled("pattern, grades, value");
+  }
+
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) {
     if (ImGui::Button("Reset R")) reset_view();
     ImGui::SameLine();
@@ -518,6 +563,7 @@ void Viewer::ui_panels(float x, float y, float w, float h) {
   ImGui::Text("Section z = %.0f mm", state_.section_z);
   const ImVec2 s0 = ImGui::GetCursorScreenPos();
   gl_image(section_tex_.texture(), ImVec2(side, side));
+  const bool section_hovered = ImGui::IsItemHovered();
   {
     const render::PlaneRect rect = render::cross_section_rect(*renderer_, state_.section_z);
     auto to_px = [&](double px, double py) {
@@ -527,7 +573,11 @@ void Viewer::ui_panels(float x, float y, float w, float h) {
     ImDrawList* dl = ImGui::GetWindowDrawList();
     dl->PushClipRect(s0, ImVec2(s0.x + side, s0.y + side), true);
     const Board& b = state_.board;
-    if (state_.show_board && state_.section_z >= b.z0 && state_.section_z <= b.z1) {
+    if (sawing_mode_ && sawing_) {
+      sawing_->draw_on_section(
+          dl, state_.section_z, [&](double px, double py) { return to_px(px, py); },
+          rect.width / side, section_hovered);
+    } else if (state_.show_board && state_.section_z >= b.z0 && state_.section_z <= b.z1) {
       const Vec3 u = b.u(), v = b.v();
       ImVec2 pts[4];
       const double su[4] = {-1, 1, 1, -1}, sv[4] = {-1, -1, 1, 1};

@@ -23,6 +23,7 @@
 #include "gl_layers.h"
 #include "knot_mesh.h"
 #include "orbit_camera.h"
+#include "sawing_session.h"
 #include "sawyer/core/result.h"
 #include "sawyer/model/log_model.h"
 #include "sawyer/render/scene.h"
@@ -77,6 +78,8 @@ struct FrameRequest {
   bool timing = false;
 };
 
+class SawingPanel;
+
 class Viewer {
  public:
   // Takes the log, uploads it and compiles the shaders (the window's context current). Errors
@@ -111,6 +114,10 @@ class Viewer {
   bool quit_requested() const { return quit_; }
   // Puts the camera back to the whole-log view (R, Home, double-click).
   void reset_view();
+  // Turns the sawing mode on with `choice` at `pos`; `optimise`: runs the optimiser to the end
+  // first (for --screenshot). On failure the mode stays off and the error is returned.
+  Status start_sawing(const SawingChoice& choice, const sawing::LogPosition& pos, bool optimise);
+  bool sawing_mode() const { return sawing_mode_; }
 
  private:
   Viewer() = default;
@@ -129,6 +136,7 @@ class Viewer {
   // A named view (OrbitCamera::view_side etc.) with the whole log fitted in.
   void view_preset(void (OrbitCamera::*preset)());
   void request_screenshot();
+  void ui_sawing(float x, float y, float w, float h);
 
   std::unique_ptr<LogModel> log_;
   std::unique_ptr<render::WoodRenderer> renderer_;
@@ -159,6 +167,9 @@ class Viewer {
   std::optional<std::filesystem::path> screenshot_request_, open_request_;
   float aspect_3d_ = 1.5f;
   double last_frame_ms_ = 0;
+  // The sawing mode (sawing_panel.h); the panel refers to log_ and goes before it.
+  std::unique_ptr<SawingPanel> sawing_;
+  bool sawing_mode_ = false;
 };
 
 }  // namespace sawyer::view

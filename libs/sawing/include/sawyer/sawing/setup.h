@@ -1,0 +1,36 @@
+// What a user names on a command line or in the viewer, turned into sawing inputs: the bundled
+// patterns, rule sets and prices by name (their files live in data/ of the source tree), or a
+// file of the user's; and a log position written "rot[,x[,y]]".
+//
+//   Result<Pattern> p = pattern_by_name("2ex");          // 2ex | 4ex | tt | pattern file
+//   Result<GradingRules> g = grading_by_name("nordic");  // nordic | gost | grading file
+//   Result<PriceTable> v = prices_by_name("");           // "" = the example prices | file
+//   Result<LogPosition> at = parse_position("20,4,-2");  // degrees, mm, mm
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "sawyer/core/result.h"
+#include "sawyer/sawing/grading.h"
+#include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/value.h"
+
+namespace sawyer::sawing {
+
+// The folder of the bundled rule sets and prices (data/ in the source tree).
+std::filesystem::path bundled_data_dir();
+
+// "2ex" (50×150 centre boards with 25×100 sides), "4ex" (38×100), "tt" (7 boards of 25 mm),
+// else a pattern file (docs/sawing.md).
+Result<Pattern> pattern_by_name(const std::string& name_or_file);
+// "nordic", "gost", else a grading file.
+Result<GradingRules> grading_by_name(const std::string& name_or_file);
+// "" for the bundled example prices, else a price file.
+Result<PriceTable> prices_by_name(const std::string& file);
+// "rot[,x[,y]]": rotation in degrees (0 = horns down), offsets in mm; finite numbers only. The
+// error names --position.
+Result<LogPosition> parse_position(const std::string& text);
+
+}  // namespace sawyer::sawing

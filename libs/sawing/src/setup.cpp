@@ -1,0 +1,58 @@
+// Sawing inputs by name (see setup.h).
+#include "sawyer/sawing/setup.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace sawyer::sawing {
+
+std::filesystem::path bundled_data_dir() { return SAWYER_DATA_DIR; }
+
+Result<Pattern> pattern_by_name(const std::string& s) {
+  if (s == "2ex") return two_ex_pattern({});
+  if (s == "4ex") {
+    CantOptions c;
+    c.centre_thickness_mm = 38;
+    c.centre_width_mm = 100;
+    return four_ex_pattern(c);
+  }
+  if (s == "tt") return through_and_through_pattern(7, 25.0);
+  return read_pattern_file(s);
+}
+
+Result<GradingRules> grading_by_name(const std::string& s) {
+  if (s == "nordic") return read_grading_file(bundled_data_dir() / "grading/nordic_appearance.json");
+  if (s == "gost") return read_grading_file(bundled_data_dir() / "grading/gost_8486_like.json");
+  return read_grading_file(s);
+}
+
+Result<PriceTable> prices_by_name(const std::string& file) {
+  return read_price_file(file.empty() ? bundled_data_dir() / "prices/example_prices.json"
+                                      : std::filesystem::path(file));
+}
+
+Result<LogPosition> parse_position(const std::string& s) {
+  std::vector<double> v;
+  std::stringstream ss(s);
+  std::string part;
+  try {
+    while (std::getline(ss, part, ',')) {
+      size_t used = 0;
+      v.push_back(std::stod(part, &used));
+      if (used != part.size() || !std::isfinite(v.back())) throw std::invalid_argument(part);
+    }
+  } catch (const std::exception&) {
+    v.clear();
+  }
+  if (v.empty() || v.size() > 3)
+    return Error("--position", "'" + s + "' is not rot[,x[,y]] (degrees, mm, mm)");
+  LogPosition p;
+  p.rotation_deg = v[0];
+  if (v.size() > 1) p.offset_x_mm = v[1];
+  if (v.size() > 2) p.offset_y_mm = v[2];
+  return p;
+}
+
+}  // namespace sawyer::sawing
