@@ -247,4 +247,14 @@ TEST(Grading, DamagedFilesGiveAnErrorNotACrash) {
         (void)parse(t);
       }
   }
+  // A number too large for a double (found by the fuzz target fuzz_sawing_files: the parser's
+  // out-of-range exception was not caught) is an error naming the problem, in all three readers.
+  const std::string huge = R"({"format": "sawyer-prices/1", "default": {"A": 1e99999}})";
+  auto message = [](const auto& result) {
+    return result.ok() ? std::string() : result.error().message();
+  };
+  for (const std::string& m :
+       {message(prices_from_json(huge)), message(grading_from_json("[1e99999]")),
+        message(pattern_from_json("[1e99999]"))})
+    EXPECT_NE(m.find("out of range"), std::string::npos) << m;
 }

@@ -17,7 +17,6 @@ namespace fs = std::filesystem;
 using namespace sawyer::sawing;
 using Json = nlohmann::ordered_json;
 
-
 }  // namespace
 
 namespace {

@@ -1,4 +1,5 @@
 // Board grading from rule tables, and the "sawyer-grading/1" reader.
+#include "json_text.h"
 #include "sawyer/sawing/grading.h"
 
 #include <nlohmann/json.hpp>
@@ -229,15 +230,9 @@ std::string describe(const GradeLimit& l, const GradingRules& rules) {
 }
 
 Result<GradingRules> grading_from_json(const std::string& text) {
-  Json j;
-  try {
-    j = Json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    size_t line = 1;
-    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i)
-      if (text[i] == '\n') ++line;
-    return Error("line " + std::to_string(line), "malformed JSON");
-  }
+  Result<Json> parsed = parse_json_text(text);
+  if (!parsed) return parsed.error();
+  const Json& j = parsed.value();
   if (!j.is_object()) return Error("top level", "expected a JSON object");
   auto fmt = j.find("format");
   if (fmt == j.end() || !fmt->is_string())

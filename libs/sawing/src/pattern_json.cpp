@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "json_text.h"
 #include "sawyer/core/file_util.h"
 #include "sawyer/sawing/pattern.h"
 
@@ -30,15 +31,9 @@ Status number_at(const Json& obj, const std::string& where, const char* key, boo
 }  // namespace
 
 Result<Pattern> pattern_from_json(const std::string& text) {
-  Json j;
-  try {
-    j = Json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    size_t line = 1;
-    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i)
-      if (text[i] == '\n') ++line;
-    return Error("line " + std::to_string(line), "malformed JSON");
-  }
+  Result<Json> parsed = parse_json_text(text);
+  if (!parsed) return parsed.error();
+  const Json& j = parsed.value();
   if (!j.is_object()) return Error("top level", "expected a JSON object");
   auto fmt = j.find("format");
   if (fmt == j.end() || !fmt->is_string())

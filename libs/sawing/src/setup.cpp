@@ -23,7 +23,8 @@ Result<Pattern> pattern_by_name(const std::string& s) {
 }
 
 Result<GradingRules> grading_by_name(const std::string& s) {
-  if (s == "nordic") return read_grading_file(bundled_data_dir() / "grading/nordic_appearance.json");
+  if (s == "nordic")
+    return read_grading_file(bundled_data_dir() / "grading/nordic_appearance.json");
   if (s == "gost") return read_grading_file(bundled_data_dir() / "grading/gost_8486_like.json");
   return read_grading_file(s);
 }

@@ -1,4 +1,5 @@
 // Prices per grade and dimension, board and log value, and the "sawyer-prices/1" reader.
+#include "json_text.h"
 #include "sawyer/sawing/value.h"
 
 #include <nlohmann/json.hpp>
@@ -63,15 +64,9 @@ LogValue value_of(const SawResult& sawn, const GradingRules& rules, const PriceT
 }
 
 Result<PriceTable> prices_from_json(const std::string& text) {
-  Json j;
-  try {
-    j = Json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    size_t line = 1;
-    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i)
-      if (text[i] == '\n') ++line;
-    return Error("line " + std::to_string(line), "malformed JSON");
-  }
+  Result<Json> parsed = parse_json_text(text);
+  if (!parsed) return parsed.error();
+  const Json& j = parsed.value();
   if (!j.is_object()) return Error("top level", "expected a JSON object");
   auto fmt = j.find("format");
   if (fmt == j.end() || !fmt->is_string())
