@@ -23,6 +23,21 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The stem pass keeping the voxels in `vol`, then the knot pass, as `sawyer scan` runs them.
+Result<KnotScan> scan_in_memory(SliceSource& src, LogVolume* vol) {
+  StemScanOptions so;
+  so.volume = vol;
+  auto stem = scan_stem(src, so);
+  if (!stem) return stem.error();
+  return scan_knots(*vol, stem.value().stem);
+}
+
+// The missed and the spurious knots, one line each.
+void print_unmatched(const KnotMatch& m) {
+  for (const auto& l : m.missed) std::printf("  %s\n", l.c_str());
+  for (const auto& l : m.spurious_list) std::printf("  %s\n", l.c_str());
+}
+
 TEST(KnotScan, CommandLineScanFindsThePhantomsKnots) {
   test::TempDir dir;
   const fs::path ct = dir.path() / "ct", out = dir.path() / "scan";
@@ -41,22 +56,22 @@ TEST(KnotScan, CommandLineScanFindsThePhantomsKnots) {
   ASSERT_TRUE(found.ok()) << found.error().message();
   auto truth = read_log_json(ct / "truth" / "log.json");
   ASSERT_TRUE(truth.ok()) << truth.error().message();
-  for (const char* f : {"qa/unrolled_r30.png", "qa/unrolled_r60.png", "qa/knots.csv",
-                        "maps/map_params.json"})
+  for (const char* f :
+       {"qa/unrolled_r30.png", "qa/unrolled_r60.png", "qa/knots.csv", "maps/map_params.json"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
 
   KnotMatchOptions mo;
   mo.z_lo = 5.0;
   mo.z_hi = 545.0;
   const KnotMatch m = match_knots(found.value().knots, truth.value().knots, truth.value().stem, mo);
-  std::printf("pine_8 2000-2550 mm: %d of %d true knots >= 10 mm found, %d found, %d spurious; "
-              "azimuth median %.2f deg, height median %.2f mm, diameter RMSE %.2f mm, r_dead "
-              "median %.1f mm (%zu knots with a dead part), r_end median %.1f mm\n",
-              m.truth_found, m.truth_counted, m.found, m.spurious, median_of(m.azimuth_deg),
-              median_of(m.height_mm), m.diameter_rmse(), median_of(m.r_dead_mm),
-              m.r_dead_mm.size(), median_of(m.r_end_mm));
-  for (const auto& l : m.missed) std::printf("  %s\n", l.c_str());
-  for (const auto& l : m.spurious_list) std::printf("  %s\n", l.c_str());
+  std::printf(
+      "pine_8 2000-2550 mm: %d of %d true knots >= 10 mm found, %d found, %d spurious; "
+      "azimuth median %.2f deg, height median %.2f mm, diameter RMSE %.2f mm, r_dead "
+      "median %.1f mm (%zu knots with a dead part), r_end median %.1f mm\n",
+      m.truth_found, m.truth_counted, m.found, m.spurious, median_of(m.azimuth_deg),
+      median_of(m.height_mm), m.diameter_rmse(), median_of(m.r_dead_mm), m.r_dead_mm.size(),
+      median_of(m.r_end_mm));
+  print_unmatched(m);
   ASSERT_GE(m.truth_counted, 4) << "the section should hold whorls";
   EXPECT_GE(m.recall(), 0.9);
   EXPECT_GE(m.precision(), 0.85);
@@ -96,19 +111,14 @@ TEST(KnotScan, ClutteredTiltedSectionOfTheRealLog) {
   ASSERT_TRUE(uniform.ok()) << uniform.error().message();
   SliceSource& src = *uniform.value();
   LogVolume vol = LogVolume::empty_like(src.geometry());
-  StemScanOptions so;
-  so.volume = &vol;
-  auto stem = scan_stem(src, so);
-  ASSERT_TRUE(stem.ok()) << stem.error().message();
-  auto knots = scan_knots(vol, stem.value().stem);
+  auto knots = scan_in_memory(src, &vol);
   ASSERT_TRUE(knots.ok()) << knots.error().message();
   const LogModel truth = ph.value()->truth_log();
   KnotMatchOptions mo;
   mo.z_lo = src.geometry().z.front() + 5.0;
   mo.z_hi = src.geometry().z.back() - 5.0;
   const KnotMatch m = match_knots(knots.value().knots, truth.knots, truth.stem, mo);
-  for (const auto& l : m.missed) std::printf("  %s\n", l.c_str());
-  for (const auto& l : m.spurious_list) std::printf("  %s\n", l.c_str());
+  print_unmatched(m);
   ASSERT_GE(m.truth_counted, 10) << "the section holds the real log's knots";
   EXPECT_GE(m.recall(), 0.9);
   EXPECT_GE(m.precision(), 0.9);
@@ -129,11 +139,7 @@ TEST(KnotScan, ClearLogYieldsNoKnots) {
   ASSERT_TRUE(ph.ok()) << ph.error().message();
   PhantomSource src(*ph.value(), true);
   LogVolume vol = LogVolume::empty_like(src.geometry());
-  StemScanOptions so;
-  so.volume = &vol;
-  auto stem = scan_stem(src, so);
-  ASSERT_TRUE(stem.ok()) << stem.error().message();
-  auto knots = scan_knots(vol, stem.value().stem);
+  auto knots = scan_in_memory(src, &vol);
   ASSERT_TRUE(knots.ok()) << knots.error().message();
   EXPECT_EQ(knots.value().knots.size(), 0u);
   EXPECT_GT(vol.bytes(), 0u) << "the stem pass kept the log's voxels";

@@ -1,6 +1,6 @@
 // Board grading from rule tables, and the "sawyer-grading/1" reader.
-#include "json_text.h"
 #include "sawyer/sawing/grading.h"
+#include "json_text.h"
 
 #include <nlohmann/json.hpp>
 
@@ -81,20 +81,6 @@ Status read_side(const Json& obj, const std::string& at, SideRules* dst) {
                         {"wane_fraction", &dst->wane_fraction}})
     if (Status s = read_number(obj, at, key, p); !s) return s;
   return Status::Ok();
-}
-
-const char* short_side(Side s) {
-  switch (s) {
-    case Side::kFacePlus:
-      return "face+";
-    case Side::kFaceMinus:
-      return "face-";
-    case Side::kEdgePlus:
-      return "edge+";
-    case Side::kEdgeMinus:
-      return "edge-";
-  }
-  return "?";
 }
 
 }  // namespace
@@ -206,18 +192,18 @@ std::string describe(const GradeLimit& l, const GradingRules& rules) {
     case LimitKind::kDeadKnot:
       std::snprintf(buf, sizeof buf, "%s knot %.1f mm on %s at %.2f m > %.1f mm allowed in %s",
                     l.kind == LimitKind::kDeadKnot ? "dead" : "sound", l.measured,
-                    short_side(l.side), l.along_mm * 1e-3, l.allowed, grade.c_str());
+                    side_name(l.side), l.along_mm * 1e-3, l.allowed, grade.c_str());
       break;
     case LimitKind::kKnotCount:
     case LimitKind::kDeadKnotCount:
     case LimitKind::kKnotsPerBoard:
       std::snprintf(buf, sizeof buf, "%.0f %sknots on %s > %.0f allowed in %s", l.measured,
-                    l.kind == LimitKind::kDeadKnotCount ? "dead " : "", short_side(l.side),
+                    l.kind == LimitKind::kDeadKnotCount ? "dead " : "", side_name(l.side),
                     l.allowed, grade.c_str());
       break;
     case LimitKind::kWane:
       std::snprintf(buf, sizeof buf, "wane %.0f %% of %s > %.0f %% allowed in %s", 100 * l.measured,
-                    short_side(l.side), 100 * l.allowed, grade.c_str());
+                    side_name(l.side), 100 * l.allowed, grade.c_str());
       break;
     case LimitKind::kWaneLength:
       std::snprintf(buf, sizeof buf, "wane along %.0f %% of the length > %.0f %% allowed in %s",
@@ -230,16 +216,9 @@ std::string describe(const GradeLimit& l, const GradingRules& rules) {
 }
 
 Result<GradingRules> grading_from_json(const std::string& text) {
-  Result<Json> parsed = parse_json_text(text);
+  Result<Json> parsed = parse_format_json(text, kGradingFormatTag);
   if (!parsed) return parsed.error();
   const Json& j = parsed.value();
-  if (!j.is_object()) return Error("top level", "expected a JSON object");
-  auto fmt = j.find("format");
-  if (fmt == j.end() || !fmt->is_string())
-    return Error("format", std::string("missing (expected \"") + kGradingFormatTag + "\")");
-  if (fmt->get<std::string>() != kGradingFormatTag)
-    return Error("format",
-                 "is \"" + fmt->get<std::string>() + "\", expected \"" + kGradingFormatTag + "\"");
   GradingRules rules;
   if (auto it = j.find("name"); it != j.end()) {
     if (!it->is_string()) return Error("name", "expected a string");

@@ -26,4 +26,18 @@ Result<nlohmann::ordered_json> parse_json_text(const std::string& text) {
   }
 }
 
+Result<nlohmann::ordered_json> parse_format_json(const std::string& text, const char* format_tag) {
+  Result<nlohmann::ordered_json> parsed = parse_json_text(text);
+  if (!parsed) return parsed.error();
+  const nlohmann::ordered_json& j = parsed.value();
+  if (!j.is_object()) return Error("top level", "expected a JSON object");
+  auto fmt = j.find("format");
+  if (fmt == j.end() || !fmt->is_string())
+    return Error("format", std::string("missing (expected \"") + format_tag + "\")");
+  if (fmt->get<std::string>() != format_tag)
+    return Error("format",
+                 "is \"" + fmt->get<std::string>() + "\", expected \"" + format_tag + "\"");
+  return parsed;
+}
+
 }  // namespace sawyer::sawing

@@ -12,4 +12,8 @@ namespace sawyer::sawing {
 
 Result<nlohmann::ordered_json> parse_json_text(const std::string& text);
 
+// The same for a sawing file: a JSON object whose "format" is `format_tag`, else an error naming
+// the top level or the format key.
+Result<nlohmann::ordered_json> parse_format_json(const std::string& text, const char* format_tag);
+
 }  // namespace sawyer::sawing

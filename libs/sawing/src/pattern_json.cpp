@@ -31,16 +31,9 @@ Status number_at(const Json& obj, const std::string& where, const char* key, boo
 }  // namespace
 
 Result<Pattern> pattern_from_json(const std::string& text) {
-  Result<Json> parsed = parse_json_text(text);
+  Result<Json> parsed = parse_format_json(text, kPatternFormatTag);
   if (!parsed) return parsed.error();
   const Json& j = parsed.value();
-  if (!j.is_object()) return Error("top level", "expected a JSON object");
-  auto fmt = j.find("format");
-  if (fmt == j.end() || !fmt->is_string())
-    return Error("format", "missing (expected \"sawyer-pattern/1\")");
-  if (fmt->get<std::string>() != kPatternFormatTag)
-    return Error("format",
-                 "is \"" + fmt->get<std::string>() + "\", expected \"" + kPatternFormatTag + "\"");
   Pattern p;
   if (auto it = j.find("name"); it != j.end()) {
     if (!it->is_string()) return Error("name", "expected a string");

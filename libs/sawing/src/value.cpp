@@ -1,6 +1,6 @@
 // Prices per grade and dimension, board and log value, and the "sawyer-prices/1" reader.
-#include "json_text.h"
 #include "sawyer/sawing/value.h"
+#include "json_text.h"
 
 #include <nlohmann/json.hpp>
 
@@ -64,16 +64,9 @@ LogValue value_of(const SawResult& sawn, const GradingRules& rules, const PriceT
 }
 
 Result<PriceTable> prices_from_json(const std::string& text) {
-  Result<Json> parsed = parse_json_text(text);
+  Result<Json> parsed = parse_format_json(text, kPricesFormatTag);
   if (!parsed) return parsed.error();
   const Json& j = parsed.value();
-  if (!j.is_object()) return Error("top level", "expected a JSON object");
-  auto fmt = j.find("format");
-  if (fmt == j.end() || !fmt->is_string())
-    return Error("format", std::string("missing (expected \"") + kPricesFormatTag + "\")");
-  if (fmt->get<std::string>() != kPricesFormatTag)
-    return Error("format",
-                 "is \"" + fmt->get<std::string>() + "\", expected \"" + kPricesFormatTag + "\"");
   PriceTable t;
   for (auto [key, dst] : {std::pair{"name", &t.name}, std::pair{"currency", &t.currency}})
     if (auto it = j.find(key); it != j.end()) {
