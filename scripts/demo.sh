@@ -1,27 +1,30 @@
 #!/usr/bin/env bash
 # The README's first command: installs what is missing, builds sawyer, and runs the main job on
-# the bundled real spruce log. Safe to run again: set-up and build are incremental.
+# the bundled real spruce log: CT folder in, cutting report out. Safe to run again: set-up and
+# build are incremental, and the CT scan is generated once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DSAWYER_BUILD_TESTS=OFF >/dev/null
 cmake --build build --target sawyer
+SAWYER=build/apps/sawyer/sawyer
 echo
-build/apps/sawyer/sawyer info sample_logs/gran1_spruce/log.json
+$SAWYER info sample_logs/gran1_spruce/log.json
 echo
-# CT in and out: half a metre of the same log as a scanner would see it, then read back.
-build/apps/sawyer/sawyer phantom sample_logs/gran1_spruce/log.json -o out/demo_ct \
-  --from-mm 1000 --to-mm 1500 --seed 1
+# The bundled log as a CT scanner would see it: a DICOM series of the whole 4 m log at 5 mm
+# slices, synthesised from its real measured geometry (pith, outer shape, 108 knots; see
+# sample_logs/README.md). Generated on the first run only (a few minutes), with its ground truth
+# in out/gran1_ct/truth/.
+if [ ! -f out/gran1_ct/truth/phantom.json ]; then
+  echo "first run: synthesising the CT scan of the bundled log into out/gran1_ct (a few minutes)"
+  $SAWYER phantom sample_logs/gran1_spruce/log.json -o out/gran1_ct --seed 1
+  echo
+fi
+# The main job: scan (pith, outer shape, knots), the best sawing position, the cutting report
+# (PDF, HTML, CSV, JSON with images) and the log register.
+$SAWYER run out/gran1_ct -o out/gran1 --id gran1_spruce --species spruce
 echo
-build/apps/sawyer/sawyer info out/demo_ct
+$SAWYER logs --id gran1_spruce
 echo
-# Analysis of that scan: pith, outer shape, heartwood and knots, with QA images.
-rm -rf out/demo_scan
-build/apps/sawyer/sawyer scan out/demo_ct -o out/demo_scan
-echo
-# The scanned model rendered headless with the knotted-wood shader: the four long faces of a
-# 150 x 40 mm board 40 mm above the pith, over the scanned half metre (the scan's own frame:
-# z from 0 at its first slice).
-build/apps/sawyer/sawyer render out/demo_scan/log.json -o out/demo_board.png \
-  --board "0,40,150,40,0,0,500" --size 1200
-echo "board faces of the scanned log: out/demo_board.png"
+echo "cutting report: $PWD/out/gran1/report/report.pdf"
+echo "                $PWD/out/gran1/report/report.html"

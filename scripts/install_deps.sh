@@ -8,9 +8,9 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev
   libopencv-dev libvtk9-dev libopenimageio-dev openimageio-tools libdeflate-dev
-  libglfw3-dev libceres-dev libgdcm-dev libgdcm-tools libsqlite3-dev libcairo2-dev libimgui-dev
+  libglfw3-dev libceres-dev libgdcm-dev libgdcm-tools libsqlite3-dev libxxhash-dev libcairo2-dev libimgui-dev
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
-  xvfb xauth
+  xvfb xauth poppler-utils chromium fonts-dejavu-core sqlite3
 )
 
 missing=()

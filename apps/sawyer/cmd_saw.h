@@ -10,12 +10,24 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdio>
 #include <functional>
+#include <string>
+
+#include "sawyer/sawing/sawing_job.h"
 
 namespace sawyer::app {
 
 // Adds the `saw` subcommand to `app`. When the command line selects it, parsing sets `run` to a
 // function that does the work and returns the exit code (0, or 1 with one line on stderr).
 void add_saw_command(CLI::App& app, std::function<int()>& run);
+
+// The one-screen summary of a sawing job (`sawyer saw`, `sawyer run`): positions and speed,
+// best / horns-down / horns-up values, the gain, and the boards' table.
+void print_sawing_summary(const LogModel& log, const sawing::SawSetup& setup,
+                          const sawing::SawingOutcome& outcome, std::FILE* f);
+// One line per board: size, length, volume, grade, value and the rule that limited the grade.
+void print_boards(const sawing::SawResult& sawn, const sawing::LogValue& value,
+                  const sawing::GradingRules& rules, const std::string& currency, std::FILE* f);
 
 }  // namespace sawyer::app

@@ -10,7 +10,11 @@
 #include "cmd_phantom.h"
 #ifdef SAWYER_HAVE_RENDER
 #include "cmd_render.h"
+#include "cmd_report.h"
+#include "cmd_run.h"
 #endif
+#include "cmd_batch.h"
+#include "cmd_logs.h"
 #include "cmd_saw.h"
 #include "cmd_scan.h"
 #include "ct_options.h"
@@ -141,9 +145,17 @@ int main(int argc, char** argv) {
   app::add_scan_command(app, run_scan);
   std::function<int()> run_saw;
   app::add_saw_command(app, run_saw);
-  std::function<int()> run_render;
+  std::function<int()> run_logs, run_batch;
+  app::add_logs_command(app, run_logs);
+  app::add_batch_command(app, run_batch);
+  std::function<int()> run_render, run_run;
 #ifdef SAWYER_HAVE_RENDER
   app::add_render_command(app, run_render);
+  app::add_run_command(app, run_run);
+#endif
+  std::function<int()> run_report;
+#ifdef SAWYER_HAVE_RENDER
+  app::add_report_command(app, run_report);
 #endif
 
   try {
@@ -157,7 +169,11 @@ int main(int argc, char** argv) {
   if (run_phantom) return run_phantom();
   if (run_scan) return run_scan();
   if (run_saw) return run_saw();
+  if (run_logs) return run_logs();
+  if (run_batch) return run_batch();
   if (run_render) return run_render();
+  if (run_run) return run_run();
+  if (run_report) return run_report();
   if (*generate)
     return cmd_generate(gen_species, gen_seed, gen_length_m, gen_top_mm, gen_position, gen_out);
   return 0;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/sawing_json.h"
 #include "sawyer/sawing/setup.h"
 
@@ -111,22 +112,15 @@ Vec2 SawingSession::scanner_to_pattern_delta(double dx, double dy) const {
 }
 
 render::Board SawingSession::board_in_scanner(size_t i) const {
-  const Board& b = sawn_.boards.at(i);
-  const double zmid = 0.5 * (b.z_begin + b.z_end);
-  const double c = std::cos(phi()), s = std::sin(phi());
-  const Vec2 o = saw_log_->line_at(zmid);
-  const double a = b.u_mm + pos_.offset_x_mm, bb = b.v_mm + pos_.offset_y_mm;
+  const BoardPlacement p = board_placement(*saw_log_, sawn_.boards.at(i), pos_);
   render::Board r;
-  r.cx = o.x + c * a + s * bb;
-  r.cy = o.y - s * a + c * bb;
-  // render::Board: width along its u, thickness along its v. Pattern u in the scanner frame is
-  // Rot(−φ)(1, 0), at angle −φ.
-  const bool thick_along_u = b.thickness_axis == ThicknessAxis::kU;
-  r.rotation = -phi() + (thick_along_u ? 0.5 * kPi : 0.0);
-  r.width = b.width_mm;
-  r.thickness = b.thickness_mm;
-  r.z0 = b.z_begin;
-  r.z1 = b.z_end;
+  r.cx = p.cx;
+  r.cy = p.cy;
+  r.rotation = p.rotation;
+  r.width = p.width;
+  r.thickness = p.thickness;
+  r.z0 = p.z0;
+  r.z1 = p.z1;
   return r;
 }
 

@@ -7,6 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/file.h>
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <array>
 #include <cstdio>
 #include <cstdlib>
@@ -80,6 +84,32 @@ const LogModel& sample_model(const std::string& name) {
     it = cache.emplace(name, r.ok() ? r.value() : LogModel{}).first;
   }
   return it->second;
+}
+
+fs::path cached_phantom(const std::string& name, const std::string& phantom_args) {
+  const fs::path root = fs::path(SAWYER_TEST_BINARY_DIR) / "test_ct";
+  const fs::path dir = root / name;
+  std::error_code ec;
+  fs::create_directories(root, ec);
+  // One process makes the scan; the others wait on the lock and find it made.
+  const int fd = ::open((root / (name + ".lock")).c_str(), O_CREAT | O_RDWR, 0644);
+  if (fd < 0 || ::flock(fd, LOCK_EX) != 0) {
+    ADD_FAILURE() << "cannot lock " << root / (name + ".lock");
+    if (fd >= 0) ::close(fd);
+    return {};
+  }
+  fs::path result = dir;
+  if (!fs::exists(dir / "truth" / "phantom.json", ec)) {
+    fs::remove_all(dir, ec);
+    std::string out;
+    if (run_sawyer("phantom " + phantom_args + " -o " + quoted(dir), &out) != 0) {
+      ADD_FAILURE() << "sawyer phantom " << phantom_args << " failed:\n" << out;
+      result.clear();
+    }
+  }
+  ::flock(fd, LOCK_UN);
+  ::close(fd);
+  return result;
 }
 
 }  // namespace sawyer::test

@@ -2,13 +2,27 @@
 #include "sawyer/sawing/setup.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
 
 namespace sawyer::sawing {
 
-std::filesystem::path bundled_data_dir() { return SAWYER_DATA_DIR; }
+namespace fs = std::filesystem;
+
+std::filesystem::path bundled_data_dir() {
+  // A user's own copy first, then an installed tree (<prefix>/bin/sawyer next to
+  // <prefix>/share/sawyer/data), then the source tree the build came from.
+  if (const char* env = std::getenv("SAWYER_DATA_DIR"); env && *env) return env;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed = exe.parent_path().parent_path() / "share" / "sawyer" / "data";
+    if (fs::is_directory(installed / "grading", ec)) return installed;
+  }
+  return SAWYER_DATA_DIR;
+}
 
 Result<Pattern> pattern_by_name(const std::string& s) {
   if (s == "2ex") return two_ex_pattern({});

@@ -1,5 +1,5 @@
 // What a user names on a command line or in the viewer, turned into sawing inputs: the bundled
-// patterns, rule sets and prices by name (their files live in data/ of the source tree), or a
+// patterns, rule sets and prices by name (files under bundled_data_dir()), or a
 // file of the user's; and a log position written "rot[,x[,y]]".
 //
 //   Result<Pattern> p = pattern_by_name("2ex");          // 2ex | 4ex | tt | pattern file
@@ -19,7 +19,9 @@
 
 namespace sawyer::sawing {
 
-// The folder of the bundled rule sets and prices (data/ in the source tree).
+// The folder of the bundled rule sets and prices: $SAWYER_DATA_DIR when set, else
+// <prefix>/share/sawyer/data beside an installed <prefix>/bin/sawyer, else data/ of the source
+// tree the program was built from.
 std::filesystem::path bundled_data_dir();
 
 // "2ex" (50×150 centre boards with 25×100 sides), "4ex" (38×100), "tt" (7 boards of 25 mm),

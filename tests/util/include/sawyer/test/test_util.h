@@ -38,6 +38,11 @@ int run_sawyer(const std::string& args, std::string* output);
 // `p` in double quotes, for run_sawyer's command line.
 std::string quoted(const std::filesystem::path& p);
 
+// A synthetic CT scan made once per build by `sawyer phantom <phantom_args> -o <folder>` and kept
+// in the build tree under test_ct/<name> (a file lock makes concurrent tests wait for the first
+// one); empty path on failure (reported as a test failure).
+std::filesystem::path cached_phantom(const std::string& name, const std::string& phantom_args);
+
 // Writes a text file (test fixtures).
 void write_file(const std::filesystem::path& path, const std::string& text);
 

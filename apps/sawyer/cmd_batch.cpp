@@ -1,0 +1,244 @@
+// `sawyer batch`: reads the manifest, keeps the shard's rows, builds one `sawyer run` command per
+// row and hands them to the job pool (libs/register/job_pool.h). The children are this very
+// executable (/proc/self/exe), so a batch never mixes versions. Every child registers its own
+// log in the shared register (WAL + busy timeout make concurrent writers safe on a local disk);
+// the batch only reads it back for the value column of batch_<i>.csv.
+#include "cmd_batch.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <system_error>
+#include <thread>
+#include <vector>
+
+#include "sawyer/core/file_util.h"
+#include "sawyer/register/job_pool.h"
+#include "sawyer/register/log_register.h"
+#include "sawyer/register/manifest.h"
+
+namespace sawyer::app {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace sawyer::reg;
+
+struct BatchCli {
+  std::string manifest, output, shard = "0/1", db;
+  int jobs = 1;
+  double timeout_s = 0;
+  bool no_register = false;
+  std::vector<std::string> pass;  // after "--": handed to every `sawyer run`
+};
+
+int fail(const Error& e) {
+  std::cerr << "sawyer: " << e.message() << "\n";
+  return 1;
+}
+
+// Options the batch sets itself for each log; given after "--" they would clash.
+bool batch_owned(const std::string& a) {
+  for (const char* o : {"-o", "--output", "--id", "--db", "--no-register"})
+    if (a == o || a.rfind(std::string(o) + "=", 0) == 0) return true;
+  return false;
+}
+
+// Removes `--name value` and `--name=value` from args: a manifest cell overrides the batch-wide
+// pass-through option (CLI11 refuses a single-valued option given twice).
+void drop_option(std::vector<std::string>& args, const std::string& name) {
+  std::vector<std::string> kept;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == name) {
+      ++i;  // and its value
+      continue;
+    }
+    if (args[i].rfind(name + "=", 0) == 0) continue;
+    kept.push_back(args[i]);
+  }
+  args = std::move(kept);
+}
+
+Result<fs::path> self_exe() {
+  std::error_code ec;
+  fs::path p = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return Error("/proc/self/exe", "cannot find this executable: " + ec.message());
+  return p;
+}
+
+std::vector<std::string> run_command(const fs::path& exe, const ManifestRow& row,
+                                     const fs::path& out_dir, const std::string& db,
+                                     const BatchCli& c) {
+  std::vector<std::string> a = {
+      exe.string(), "run", row.ct_path.string(), "-o", (out_dir / row.id).string(), "--id", row.id};
+  if (c.no_register)
+    a.push_back("--no-register");
+  else
+    a.insert(a.end(), {"--db", db});
+  std::vector<std::string> pass = c.pass;
+  drop_option(pass, "--quiet");
+  drop_option(pass, "-q");
+  auto cell = [&](const char* option, const std::string& value) {
+    if (value.empty()) return;
+    drop_option(pass, option);
+    a.insert(a.end(), {option, value});
+  };
+  cell("--species", row.species);
+  cell("--pattern", row.pattern);
+  cell("--grading", row.grading);
+  cell("--prices", row.prices);
+  cell("--position", row.position);
+  a.insert(a.end(), pass.begin(), pass.end());
+  // Each run uses every core by default: with several at once, share the cores out instead of
+  // oversubscribing them (an explicit --threads after -- wins).
+  const bool has_threads = std::any_of(pass.begin(), pass.end(), [](const std::string& x) {
+    return x == "--threads" || x.rfind("--threads=", 0) == 0;
+  });
+  if (c.jobs > 1 && !has_threads) {
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    a.insert(a.end(), {"--threads", std::to_string(std::max(1u, cores / c.jobs))});
+  }
+  a.push_back("--quiet");
+  return a;
+}
+
+std::string seconds_text(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", s);
+  return buf;
+}
+
+int run(const BatchCli& c) {
+  Result<Manifest> manifest = read_manifest(c.manifest);
+  if (!manifest) return fail(manifest.error());
+  Result<Shard> shard = parse_shard(c.shard);
+  if (!shard) return fail(shard.error());
+  if (c.jobs < 1) return fail(Error("--jobs", "must be at least 1"));
+  for (const std::string& a : c.pass)
+    if (batch_owned(a))
+      return fail(Error("options after --", "'" + a + "' is set by the batch for each log"));
+  Result<fs::path> exe = self_exe();
+  if (!exe) return fail(exe.error());
+
+  const fs::path out_dir = fs::absolute(c.output);
+  std::error_code ec;
+  fs::create_directories(out_dir / "logs", ec);
+  if (ec) return fail(Error(out_dir.string(), "cannot create folder: " + ec.message()));
+
+  // Open (and create) the register before starting anything: a bad db file should stop the
+  // batch once, not fail every log.
+  const fs::path db = fs::absolute(c.db.empty() ? default_register_path() : fs::path(c.db));
+  if (!c.no_register) {
+    Result<LogRegister> reg = LogRegister::open(db);
+    if (!reg) return fail(reg.error());
+  }
+
+  std::vector<const ManifestRow*> rows;
+  for (const ManifestRow& r : manifest.value().rows)
+    if (shard.value().owns(r.index)) rows.push_back(&r);
+  const std::string shard_text =
+      std::to_string(shard.value().index) + "/" + std::to_string(shard.value().count);
+
+  std::vector<Job> jobs;
+  for (const ManifestRow* r : rows) {
+    Job j;
+    j.id = r->id;
+    j.argv = run_command(exe.value(), *r, out_dir, db.string(), c);
+    j.stdout_path = out_dir / "logs" / (r->id + ".out");
+    j.stderr_path = out_dir / "logs" / (r->id + ".err");
+    jobs.push_back(std::move(j));
+  }
+  std::cout << "batch " << c.manifest << ": " << rows.size() << " of "
+            << manifest.value().rows.size() << " logs (shard " << shard_text << "), " << c.jobs
+            << (c.jobs == 1 ? " job" : " jobs") << " at a time -> " << out_dir.string() << "\n"
+            << std::flush;
+
+  JobPoolOptions po;
+  po.jobs = c.jobs;
+  po.timeout_s = c.timeout_s;
+  po.on_finished = [](const JobResult& r, int done, int total) {
+    std::cout << "[" << done << "/" << total << "] " << r.id << " " << (r.ok() ? "ok" : "FAILED")
+              << " " << seconds_text(r.seconds) << " s";
+    if (!r.ok()) std::cout << ": " << r.error;
+    std::cout << "\n" << std::flush;
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<JobResult> results = run_jobs(jobs, po);
+  const double total_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  // The value of each good log, read back from the register its run wrote to.
+  std::optional<LogRegister> reg;
+  if (!c.no_register) {
+    Result<LogRegister> r = LogRegister::open_read_only(db);
+    if (r) reg.emplace(std::move(r).value());
+  }
+  std::string csv = "id,ct,status,exit_code,seconds,value,error\n";
+  int failed = 0;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const JobResult& r = results[i];
+    failed += !r.ok();
+    std::string value;
+    if (r.ok() && reg) {
+      const fs::path source = fs::weakly_canonical(rows[i]->ct_path, ec);
+      Result<std::optional<LogRecord>> rec = reg->find(source.string());
+      if (rec && rec.value()) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%.2f", rec.value()->value);
+        value = buf;
+      }
+    }
+    csv += csv_cell(r.id) + "," + csv_cell(rows[i]->ct_path.string()) + "," +
+           (r.ok() ? "ok" : "failed") + "," + std::to_string(r.exit_code) + "," +
+           seconds_text(r.seconds) + "," + value + "," + csv_cell(r.error) + "\n";
+  }
+  const fs::path csv_path = out_dir / ("batch_" + std::to_string(shard.value().index) + ".csv");
+  if (Status s = write_text_file_atomic(csv_path, csv); !s) return fail(s.error());
+  std::cout << "batch: " << rows.size() - static_cast<size_t>(failed) << " ok, " << failed
+            << " failed of " << rows.size() << " in " << seconds_text(total_s) << " s; "
+            << csv_path.string() << "\n";
+  return failed ? 2 : 0;
+}
+
+}  // namespace
+
+void add_batch_command(CLI::App& app, std::function<int()>& run_out) {
+  auto c = std::make_shared<BatchCli>();
+  CLI::App* cmd = app.add_subcommand(
+      "batch",
+      "Run `sawyer run` on every CT scan of a manifest (ct,id,species,... CSV), one subprocess "
+      "per log, and register them; exit 0 all ok, 2 some failed, 1 bad manifest or options");
+  cmd->add_option("manifest", c->manifest,
+                  "CSV with a header: ct (required; relative to the manifest's folder), id, "
+                  "species, pattern, grading, prices, position")
+      ->required();
+  cmd->add_option("-o,--output", c->output,
+                  "output folder: <dir>/<id>/ per log, <dir>/logs/<id>.err, <dir>/batch_<i>.csv")
+      ->required();
+  cmd->add_option("-j,--jobs", c->jobs,
+                  "logs at once, each its own process (memory: N times one log's peak)")
+      ->capture_default_str();
+  cmd->add_option("--shard", c->shard,
+                  "i/N: only rows with row_index % N == i, 0-based, e.g. "
+                  "${SLURM_ARRAY_TASK_ID}/${SLURM_ARRAY_TASK_COUNT}")
+      ->capture_default_str();
+  cmd->add_option("--db", c->db,
+                  "the register every log goes into (default: $SAWYER_DB, else "
+                  "~/.local/share/sawyer/logs.sqlite)");
+  cmd->add_flag("--no-register", c->no_register, "do not register the logs");
+  cmd->add_option("--timeout", c->timeout_s,
+                  "seconds a log may take before it is stopped and counted failed (0: no limit)")
+      ->capture_default_str();
+  cmd->add_option("run_options", c->pass,
+                  "after --: options for every `sawyer run` (--pattern, --grading, --prices, "
+                  "...); manifest cells override them");
+  cmd->callback([c, &run_out]() { run_out = [c]() { return run(*c); }; });
+}
+
+}  // namespace sawyer::app

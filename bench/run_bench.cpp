@@ -1,0 +1,143 @@
+// End-to-end time of the main job, `sawyer run` (scan + saw + report + register), as a user runs
+// it: the bundled real spruce log (4.0 m, 108 knots) and generated 4 m logs, each as a DICOM
+// series at 5 mm slices, 512 × 512 × 0.8 mm. The scans are synthesised once into a cache folder.
+// Prints per log the stage times that run.json records and the command's wall time, best and
+// median of the repeats; the target is ≤ 5 s on 2 cores.
+//
+//   build/bench/run_bench [--repeat 3] [--cache DIR] [--threads N] [--logs gran1,pine21,spruce22]
+#include <nlohmann/json.hpp>
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Case {
+  std::string name, model_cmd;  // model_cmd: "" for a bundled log.json path in `model`
+  std::string model;
+};
+
+int sh(const std::string& cmd) {
+  const int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : 1;
+}
+
+// Runs `cmd` through /bin/sh; returns its exit code and, in *peak_mib, the largest resident set
+// of the command's process tree's biggest child (getrusage of the waited-for children).
+int sh_peak(const std::string& cmd, double* peak_mib) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  int status = 0;
+  rusage ru{};
+  if (pid < 0 || wait4(pid, &status, 0, &ru) < 0) return 1;
+  // The shell exec()s a simple command, so this is sawyer's own peak (Linux: KiB).
+  *peak_mib = ru.ru_maxrss / 1024.0;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string sawyer = SAWYER_EXE, src = SAWYER_SOURCE_DIR;
+  int repeat = 3;
+  std::string cache = "bench_ct", logs = "gran1,pine21,spruce22", threads;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--repeat")) repeat = std::max(1, std::atoi(argv[i + 1]));
+    else if (!std::strcmp(argv[i], "--cache")) cache = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--logs")) logs = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--threads")) threads = argv[i + 1];
+  }
+  fs::create_directories(cache);
+  std::vector<Case> cases;
+  std::stringstream names(logs);
+  for (std::string n; std::getline(names, n, ',');) {
+    if (n == "gran1")
+      cases.push_back({"gran1_spruce", "", src + "/sample_logs/gran1_spruce/log.json"});
+    else if (n.rfind("pine", 0) == 0 || n.rfind("spruce", 0) == 0) {
+      const bool pine = n[0] == 'p';
+      const std::string seed = n.substr(pine ? 4 : 6);
+      const std::string model = cache + "/" + n + ".json";
+      cases.push_back({n, sawyer + " generate --species " + (pine ? "pine" : "spruce") +
+                              " --seed " + seed + " --length-m 4 -o " + model + " >/dev/null",
+                       model});
+    } else {
+      std::fprintf(stderr, "run_bench: unknown log '%s' (gran1, pineN, spruceN)\n", n.c_str());
+      return 1;
+    }
+  }
+
+  std::printf("%-14s %7s %6s | %6s %6s %6s %8s %6s | %7s %7s %8s | %s\n", "log", "slices",
+              "knots", "scan", "saw", "write", "checksum", "report", "wall", "median",
+              "peak MiB", "runs (s)");
+  for (const Case& c : cases) {
+    if (!c.model_cmd.empty() && !fs::exists(c.model) && sh(c.model_cmd) != 0) return 1;
+    const std::string ct = cache + "/" + c.name + "_ct";
+    if (!fs::exists(ct + "/truth/phantom.json")) {
+      std::fprintf(stderr, "run_bench: synthesising %s (once)\n", ct.c_str());
+      if (sh(sawyer + " phantom " + c.model + " -o " + ct + " --seed 1 >/dev/null") != 0) return 1;
+    }
+    std::map<std::string, std::vector<double>> stage;
+    std::vector<double> wall;
+    double peak = 0;
+    int slices = 0, knots = 0;
+    for (int r = 0; r < repeat; ++r) {
+      const std::string out = cache + "/" + c.name + "_run";
+      std::string cmd = sawyer + " run " + ct + " -o " + out + " --quiet --db " + cache +
+                        "/bench.sqlite --id " + c.name;
+      if (!threads.empty()) cmd += " --threads " + threads;
+      const auto t0 = std::chrono::steady_clock::now();
+      double p = 0;
+      if (sh_peak(cmd + " >/dev/null", &p) != 0) return 1;
+      peak = std::max(peak, p);
+      wall.push_back(
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      std::ifstream f(out + "/run.json");
+      const nlohmann::json j = nlohmann::json::parse(f, nullptr, false);
+      if (j.is_discarded()) {
+        std::fprintf(stderr, "run_bench: %s/run.json unreadable\n", out.c_str());
+        return 1;
+      }
+      for (const auto& s : j["stages"]) stage[s["name"]].push_back(s["seconds"].get<double>());
+      slices = j.value("slices", 0);
+      knots = j.value("knots", 0);
+    }
+    // The report stage is measured by sawyer run itself and listed after "write".
+    auto med = [&](const char* s) { return median(stage[s]); };
+    std::string runs;
+    for (double w : wall) {
+      char b[16];
+      std::snprintf(b, sizeof b, "%.2f ", w);
+      runs += b;
+    }
+    std::printf("%-14s %7d %6d | %6.2f %6.2f %6.2f %8.2f %6.2f | %7.2f %7.2f %8.0f | %s\n",
+                c.name.c_str(), slices, knots, med("scan"), med("saw"), med("write"),
+                med("checksum"), med("report"),
+                *std::min_element(wall.begin(), wall.end()), median(wall), peak, runs.c_str());
+  }
+  std::printf("stages: medians of %d runs (run.json); wall: the whole command, best and median; "
+              "target ≤ 5 s\n", repeat);
+  return 0;
+}

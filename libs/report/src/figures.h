@@ -1,0 +1,54 @@
+// The report's figures: wood images from the knotted-wood renderer with cairo overlays, and the
+// plots drawn with cairo alone. Each returns an opaque raster surface (canvas.h).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "canvas.h"
+#include "sawyer/render/wood_renderer.h"
+#include "sawyer/report/run_folder.h"
+#include "sawyer/sawing/placement.h"
+#include "sawyer/sawing/sawing.h"
+
+namespace sawyer::report {
+
+// The boards at the chosen position, as libs/sawing describes them (centre, size, axis, z).
+struct BoardSet {
+  std::vector<sawing::Board> boards;  // parallel to RunFolder::sawing.boards
+  bool rebuilt = false;               // sawn again with the pattern, names checked
+  std::string note;                   // why not, when not
+};
+
+// Saws the log again at the chosen position with the pattern named in run.json (or the bundled
+// pattern whose name sawing.json gives) and checks the boards' names against sawing.json; if the
+// pattern cannot be found or the boards differ, takes the boards' places from sawing.json.
+BoardSet place_boards(const RunFolder& run, const sawing::SawLog& log);
+
+// The cross-section at height z as the log lies on the saw (turned to the chosen position, seen
+// from the top end, the pattern frame's u to the right and v up), the boards outlined and
+// numbered, every knot's axis projected onto the section (sound part green, dead part red).
+Result<SurfacePtr> end_view(render::WoodRenderer& r, const RunFolder& run,
+                            const sawing::SawLog& log, const BoardSet& boards, double z, int px);
+
+// The log in 3D from the side: its outer surface over the butt half, the boards at the chosen
+// position sticking out of it.
+Result<SurfacePtr> log_view(render::WoodRenderer& r, const sawing::SawLog& log,
+                            const RunFolder& run, const BoardSet& boards, int w, int h);
+
+// A board's four long faces (face+, face−, edge+, edge−) rendered at `px_per_cm`, labelled, with
+// a length scale in metres from the board's butt end.
+Result<SurfacePtr> board_faces(render::WoodRenderer& r, const sawing::SawLog& log,
+                               const sawing::LogPosition& pos, const sawing::Board& board,
+                               double px_per_cm, int supersample);
+
+// The optimiser's expected value over rotation × x offset (at the chosen y offset), with the
+// chosen, best and horns-down positions marked and a colour bar in the currency. Empty surface
+// (nullptr) when sawing.json has no grid.
+SurfacePtr value_map(const SawingRecord& s, int w);
+
+// The pith track (x, y) and the diameter (equal-area, with the min–max band) along the log, the
+// boards' length shaded.
+SurfacePtr log_profile(const LogModel& log, const BoardSet& boards, int w);
+
+}  // namespace sawyer::report

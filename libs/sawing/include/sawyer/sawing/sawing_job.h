@@ -1,0 +1,70 @@
+// One sawing job as `sawyer saw` and `sawyer run` do it: the inputs named on a command line
+// loaded and checked before any work, the optimiser run over a log, and the `sawyer-sawing/1`
+// file (docs/sawing.md) that the report and the viewer read.
+//
+//   Result<SawSetup> setup = load_saw_setup({"2ex", "nordic", "", ""}, OptimiseOptions{});
+//   Result<SawingOutcome> out = saw_log_model(log, setup.value(), progress);
+//   nlohmann::ordered_json file = sawing_file_json(log, setup.value(), out.value());
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "sawyer/core/result.h"
+#include "sawyer/model/log_model.h"
+#include "sawyer/sawing/grading.h"
+#include "sawyer/sawing/optimise.h"
+#include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/value.h"
+
+namespace sawyer::sawing {
+
+// What the user named: bundled names or files (setup.h), and a position "rot[,x[,y]]" or "".
+struct SawNames {
+  std::string pattern = "2ex", grading = "nordic", prices, position;
+};
+
+struct SawSetup {
+  SawNames names;
+  Pattern pattern;
+  GradingRules rules;
+  PriceTable prices;
+  std::filesystem::path prices_path;  // the file the prices came from
+  OptimiseOptions options;
+  std::optional<LogPosition> position;  // the user's position: it is the chosen one
+};
+
+// Loads the pattern, rules and prices, checks that the prices cover every grade and that the
+// options suit the pattern, parses the position. Errors name the file or the option.
+Result<SawSetup> load_saw_setup(const SawNames& names, const OptimiseOptions& options);
+
+struct SawingOutcome {
+  SawLog saw_log;
+  OptimiseResult opt;
+  SawResult best_sawn;
+  LogValue best_value;
+  std::optional<SawResult> given_sawn;  // at SawSetup::position
+  std::optional<LogValue> given_value;
+  // The position the report shows: the user's when given, else the optimiser's best.
+  bool chosen_is_given() const { return given_sawn.has_value(); }
+  const SawResult& chosen_sawn() const { return given_sawn ? *given_sawn : best_sawn; }
+  const LogValue& chosen_value() const { return given_value ? *given_value : best_value; }
+};
+
+// Refuses a pattern that does not fit the log (naming its usable diameter), then runs the
+// optimiser and saws the best and the given position. `progress` as optimise_position's.
+Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
+                                    const std::function<void(int, int)>& progress = {});
+
+// The `sawyer-sawing/1` file: names, options, best / horns-down / horns-up with their values,
+// gains, ranked positions, the boards at the best position (with details), the given position
+// and its boards, "chosen" ("best" | "given"), and the value surface.
+nlohmann::ordered_json sawing_file_json(const LogModel& log, const SawSetup& setup,
+                                        const SawingOutcome& outcome);
+
+}  // namespace sawyer::sawing

@@ -1,0 +1,113 @@
+// One sawing job (see sawing_job.h).
+#include "sawyer/sawing/sawing_job.h"
+
+#include "sawyer/sawing/sawing_json.h"
+#include "sawyer/sawing/setup.h"
+
+namespace sawyer::sawing {
+
+using Json = nlohmann::ordered_json;
+
+Result<SawSetup> load_saw_setup(const SawNames& names, const OptimiseOptions& options) {
+  SawSetup s;
+  s.names = names;
+  s.options = options;
+  Result<Pattern> pattern = pattern_by_name(names.pattern);
+  if (!pattern) return pattern.error();
+  s.pattern = std::move(pattern.value());
+  Result<GradingRules> rules = grading_by_name(names.grading);
+  if (!rules) return rules.error();
+  s.rules = std::move(rules.value());
+  s.prices_path = names.prices.empty() ? bundled_data_dir() / "prices/example_prices.json"
+                                       : std::filesystem::path(names.prices);
+  Result<PriceTable> prices = prices_by_name(names.prices);
+  if (!prices) return prices.error();
+  s.prices = std::move(prices.value());
+  if (Status st = s.prices.check_covers(s.rules); !st)
+    return st.error().with_context(s.prices_path.string());
+  if (!names.position.empty()) {
+    Result<LogPosition> p = parse_position(names.position);
+    if (!p) return p.error();
+    s.position = p.value();
+  }
+  if (Status st = s.options.validate(s.pattern); !st) return st.error();
+  return s;
+}
+
+Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
+                                    const std::function<void(int, int)>& progress) {
+  SawingOutcome out{SawLog(log), {}, {}, {}, {}, {}};
+  if (Status s = check_pattern_fits(setup.pattern, out.saw_log.usable_diameter_mm(), log.id); !s)
+    return s.error();
+  Result<OptimiseResult> opt = optimise_position(out.saw_log, setup.pattern, setup.rules,
+                                                 setup.prices, setup.options, progress);
+  if (!opt) return opt.error();
+  out.opt = std::move(opt.value());
+  out.best_sawn = saw(out.saw_log, setup.pattern, out.opt.best.pos);
+  out.best_value = value_of(out.best_sawn, setup.rules, setup.prices);
+  if (setup.position) {
+    out.given_sawn = saw(out.saw_log, setup.pattern, *setup.position);
+    out.given_value = value_of(*out.given_sawn, setup.rules, setup.prices);
+  }
+  return out;
+}
+
+namespace {
+
+Json ranked_json(const RankedPosition& r) {
+  Json j = position_json(r.pos);
+  j["value"] = r.value;
+  j["smoothed_value"] = r.smoothed;
+  return j;
+}
+
+}  // namespace
+
+Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOutcome& out) {
+  const OptimiseResult& r = out.opt;
+  const OptimiseOptions& o = setup.options;
+  Json j;
+  j["format"] = "sawyer-sawing/1";
+  j["log"] = log.id;
+  j["pattern"] = setup.pattern.name;
+  j["grading"] = setup.rules.name;
+  j["prices"] = setup.prices.name;
+  j["currency"] = setup.prices.currency;
+  j["inputs"] = {{"pattern", setup.names.pattern},
+                 {"grading", setup.names.grading},
+                 {"prices", setup.prices_path.string()}};
+  j["options"] = {
+      {"rot_step_deg", o.rot_step_deg},       {"rot_range_deg", r.rot_range_deg},
+      {"offset_x_max_mm", o.offset_x_max_mm}, {"offset_x_step_mm", o.offset_x_step_mm},
+      {"offset_y_max_mm", o.offset_y_max_mm}, {"offset_y_step_mm", o.offset_y_step_mm},
+      {"sigma_rot_deg", o.sigma_rot_deg},     {"sigma_offset_mm", o.sigma_offset_mm}};
+  j["pattern_point_symmetric"] = r.symmetric;
+  j["chosen"] = out.chosen_is_given() ? "given" : "best";
+  j["best"] = ranked_json(r.best);
+  j["horns_down"] = ranked_json(r.horns_down);
+  j["horns_up"] = ranked_json(r.horns_up);
+  j["gain_over_horns_down"] = r.gain_over_horns_down;
+  j["gain_over_horns_up"] = r.gain_over_horns_up;
+  Json ranked = Json::array();
+  for (const RankedPosition& p : r.ranked) ranked.push_back(ranked_json(p));
+  j["ranked"] = ranked;
+  j["boards"] = boards_json(out.best_sawn, out.best_value, setup.rules, true);
+  if (out.given_sawn) {
+    j["given_position"] = position_json(*setup.position);
+    j["given_position"]["value"] = out.given_value->value;
+    // Raw over raw: a position off the grid has no smoothed value.
+    j["given_position"]["gain_over_horns_down"] =
+        r.horns_down.value > 0 ? out.given_value->value / r.horns_down.value - 1 : 0.0;
+    j["given_position"]["boards"] =
+        boards_json(*out.given_sawn, *out.given_value, setup.rules, true);
+  }
+  j["surface"] = {{"index", "(rotation × offsets_x + x) × offsets_y + y"},
+                  {"rotations_deg", r.rotations_deg},
+                  {"offsets_x_mm", r.offsets_x_mm},
+                  {"offsets_y_mm", r.offsets_y_mm},
+                  {"value", r.value},
+                  {"smoothed_value", r.smoothed}};
+  return j;
+}
+
+}  // namespace sawyer::sawing

@@ -1,0 +1,381 @@
+// The cutting report (`sawyer report`, libs/report): the PDF read back with poppler's tools, the
+// HTML page decoded by headless Chromium, boards.csv and report.json against sawing.json, broken
+// run folders refused without leaving a report, and board placement in the scanner frame.
+//
+// Needs poppler-utils and chromium (scripts/install_deps.sh); a missing tool fails the test.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "sawyer/render/image.h"
+#include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/placement.h"
+#include "sawyer/sawing/sawing.h"
+#include "sawyer/test/test_util.h"
+
+using namespace sawyer;
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+std::string read(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// Runs a shell command, returns its exit code and stdout (stderr dropped).
+int shell(const std::string& cmd, std::string* out) {
+  FILE* pipe = popen((cmd + " 2>/dev/null").c_str(), "r");
+  if (!pipe) return -1;
+  char buf[4096];
+  size_t n;
+  out->clear();
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) out->append(buf, n);
+  const int st = pclose(pipe);
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+bool have_tool(const std::string& name) {
+  std::string out;
+  return shell("command -v " + name, &out) == 0 && !out.empty();
+}
+
+#define REQUIRE_TOOL(name)                                                                \
+  ASSERT_TRUE(have_tool(name)) << name << " is missing: run scripts/install_deps.sh (it " \
+                               << "installs poppler-utils and chromium)"
+
+// A run folder as `sawyer run` leaves it, from the bundled 4 m spruce: scan/log.json, sawing.json
+// from `sawyer saw` (with `position`, "chosen": "given"), and run.json.
+void make_run_folder(const fs::path& dir, const std::string& position = "") {
+  fs::create_directories(dir / "scan");
+  fs::copy_file(test::sample_log("gran1_spruce") / "log.json", dir / "scan" / "log.json");
+  std::string out;
+  const std::string pos = position.empty() ? "" : " --position " + position;
+  ASSERT_EQ(test::run_sawyer("saw " + test::quoted(dir / "scan" / "log.json") + " -q" + pos +
+                                 " -o " + test::quoted(dir / "sawing.json"),
+                             &out),
+            0)
+      << out;
+  if (!position.empty()) {
+    Json s = Json::parse(read(dir / "sawing.json"));
+    s["chosen"] = "given";
+    test::write_file(dir / "sawing.json", s.dump(1));
+  }
+  Json run = {
+      {"format", "sawyer-run/1"},
+      {"log_id", "gran1_spruce"},
+      {"species", "spruce"},
+      {"scan_source", "/data/ct/gran1"},
+      {"scan_description", "test fixture: the bundled model"},
+      {"date", "2026-11-24T05:00:00Z"},
+      {"sawyer_version", "test"},
+      {"options",
+       {{"pattern", "2ex"}, {"grading", "nordic"}, {"prices", ""}, {"position", position}}},
+      {"stages", {{{"name", "scan"}, {"seconds", 1.5}}, {{"name", "saw"}, {"seconds", 0.3}}}}};
+  test::write_file(dir / "run.json", run.dump(1));
+}
+
+void make_report(const fs::path& dir) {
+  std::string out;
+  ASSERT_EQ(test::run_sawyer("report -q " + test::quoted(dir), &out), 0) << out;
+  ASSERT_TRUE(fs::exists(dir / "report" / "report.pdf")) << out;
+}
+
+// The boards at the chosen position.
+const Json& chosen_boards(const Json& sawing) {
+  return sawing.value("chosen", "best") == "given" ? sawing["given_position"]["boards"]
+                                                   : sawing["boards"];
+}
+
+}  // namespace
+
+TEST(Report, PdfHasPagesImagesRotationAndGrades) {
+  REQUIRE_TOOL("pdfinfo");
+  REQUIRE_TOOL("pdfimages");
+  REQUIRE_TOOL("pdftoppm");
+  REQUIRE_TOOL("pdftotext");
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  const fs::path pdf = dir / "report/report.pdf";
+  const Json sawing = Json::parse(read(dir / "sawing.json"));
+  const Json& boards = chosen_boards(sawing);
+
+  std::string out;
+  ASSERT_EQ(shell("pdfinfo " + test::quoted(pdf), &out), 0);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("Pages:\\s+(\\d+)"))) << out;
+  EXPECT_GE(std::stoi(m[1]), 2);
+
+  // pdfimages -list: two header lines, then one line per image (and soft mask).
+  ASSERT_EQ(shell("pdfimages -list " + test::quoted(pdf), &out), 0);
+  int images = 0;
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);)
+    if (std::regex_search(line, std::regex("^\\s*\\d+\\s+\\d+\\s+image"))) ++images;
+  EXPECT_GE(images, 3 + static_cast<int>(boards.size())) << out;
+
+  ASSERT_EQ(
+      shell("pdftoppm -r 40 -png -f 1 -l 1 " + test::quoted(pdf) + " " + test::quoted(dir / "page"),
+            &out),
+      0);
+  fs::path page;
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    if (e.path().filename().string().rfind("page", 0) == 0) page = e.path();
+  ASSERT_FALSE(page.empty()) << "pdftoppm wrote no page image";
+  Result<render::Image> img = render::read_image(page);
+  ASSERT_TRUE(img.ok()) << img.error().message();
+  // Non-blank: a fair share of the page is neither white nor one flat colour.
+  int dark = 0;
+  for (int y = 0; y < img.value().height; ++y)
+    for (int x = 0; x < img.value().width; ++x)
+      dark += img.value().value(x, y, 0) + img.value().value(x, y, 1) < 1.6f;
+  EXPECT_GT(dark, img.value().width * img.value().height / 50);
+
+  ASSERT_EQ(shell("pdftotext -layout " + test::quoted(pdf) + " -", &out), 0);
+  EXPECT_NE(out.find("gran1_spruce"), std::string::npos);
+  char rot[32];
+  std::snprintf(rot, sizeof rot, "%.1f°", sawing["best"]["rotation_deg"].get<double>());
+  EXPECT_NE(out.find(rot), std::string::npos) << "rotation " << rot << " not in\n" << out;
+  for (const Json& b : boards) {
+    const std::string grade = b["grade"];
+    EXPECT_TRUE(std::regex_search(out, std::regex("\\b" + grade + "\\b"))) << grade;
+  }
+}
+
+TEST(Report, HtmlIsSelfContainedAndEveryImageDecodesInChromium) {
+  REQUIRE_TOOL("chromium");
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  std::string html = read(dir / "report/report.html");
+  EXPECT_EQ(html.find("http://"), std::string::npos);
+  EXPECT_EQ(html.find("https://"), std::string::npos);
+  const Json sawing = Json::parse(read(dir / "sawing.json"));
+  // End view, 3D view, value map, log profile and one image per board.
+  const size_t expected = 4 + chosen_boards(sawing).size();
+
+  // A copy with a script that writes, on load, each image's state into the DOM.
+  html +=
+      "<script>window.addEventListener('load', function () {"
+      "  var out = [];"
+      "  for (var i = 0; i < document.images.length; ++i)"
+      "    out.push(document.images[i].complete + ':' + document.images[i].naturalWidth);"
+      "  var p = document.createElement('pre'); p.id = 'imgcheck';"
+      "  p.textContent = 'IMGCHECK[' + out.join(',') + ']'; document.body.appendChild(p);"
+      "});</script>\n";
+  test::TempDir view;
+  test::write_file(view / "page.html", html);
+  std::string dom;
+  shell(
+      "timeout 120 chromium --headless --no-sandbox --disable-gpu --no-first-run "
+      "--user-data-dir=" +
+          test::quoted(view / "profile") + " --virtual-time-budget=10000 --dump-dom " +
+          test::quoted("file://" + (view / "page.html").string()),
+      &dom);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(dom, m, std::regex("id=\"imgcheck\">IMGCHECK\\[([^\\]]*)\\]")))
+      << "chromium gave no result; its DOM begins:\n"
+      << dom.substr(0, 400);
+  std::vector<std::string> states;
+  std::istringstream items(m[1].str());
+  for (std::string s; std::getline(items, s, ',');) states.push_back(s);
+  EXPECT_EQ(states.size(), expected);
+  for (size_t i = 0; i < states.size(); ++i) {
+    EXPECT_EQ(states[i].rfind("true:", 0), 0u) << "image " << i << ": " << states[i];
+    EXPECT_GT(std::atoi(states[i].c_str() + states[i].find(':') + 1), 0)
+        << "image " << i << " did not decode: " << states[i];
+  }
+}
+
+TEST(Report, CsvAndJsonAgreeWithSawingJson) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  const Json sawing = Json::parse(read(dir / "sawing.json"));
+  const Json& boards = chosen_boards(sawing);
+  double total = 0;
+  for (const Json& b : boards) total += b["value"].get<double>();
+
+  const Json rep = Json::parse(read(dir / "report/report.json"));
+  EXPECT_EQ(rep["format"], "sawyer-report/1");
+  EXPECT_EQ(rep["log"]["id"], "gran1_spruce");
+  EXPECT_EQ(rep["chosen"], "best");
+  EXPECT_EQ(rep["boards"].size(), boards.size());
+  EXPECT_EQ(rep["totals"]["boards"].get<size_t>(), boards.size());
+  EXPECT_NEAR(rep["totals"]["value"].get<double>(), total, 1e-6);
+  EXPECT_NEAR(rep["position"]["value"].get<double>(), sawing["best"]["value"].get<double>(), 1e-6);
+  EXPECT_NEAR(rep["gain_over_horns_down"].get<double>(),
+              sawing["gain_over_horns_down"].get<double>(), 1e-12);
+  EXPECT_TRUE(rep["boards_rebuilt"].get<bool>()) << rep["boards_note"];
+  const double yield = rep["totals"]["volume_yield"];
+  EXPECT_GT(yield, 0.1);
+  EXPECT_LT(yield, 1.0);
+  for (const Json& img : rep["images"])
+    EXPECT_TRUE(fs::exists(dir / "report" / img.get<std::string>()));
+
+  // boards.csv: a header and one line per board; the value column sums to the same total.
+  std::istringstream csv(read(dir / "report/boards.csv"));
+  std::string header;
+  std::getline(csv, header);
+  ASSERT_EQ(header.rfind("board,name,", 0), 0u) << header;
+  size_t rows = 0;
+  double csv_total = 0;
+  for (std::string line; std::getline(csv, line); ++rows) {
+    // value is the 12th column; limited_by (10th) may be quoted and hold commas.
+    std::vector<std::string> cells;
+    std::string cell;
+    bool quoted = false;
+    for (char ch : line) {
+      if (ch == '"')
+        quoted = !quoted;
+      else if (ch == ',' && !quoted)
+        cells.push_back(std::exchange(cell, ""));
+      else
+        cell += ch;
+    }
+    cells.push_back(cell);
+    ASSERT_EQ(cells.size(), 15u) << line;
+    EXPECT_EQ(cells[1], boards[rows]["name"]);
+    EXPECT_EQ(cells[8], boards[rows]["grade"]);
+    csv_total += std::stod(cells[11]);
+  }
+  EXPECT_EQ(rows, boards.size());
+  EXPECT_NEAR(csv_total, total, 1e-6 * boards.size() + 1e-6);
+}
+
+TEST(Report, GivenPositionIsTheOneReported) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path(), "30,4,0"));
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  const Json sawing = Json::parse(read(dir / "sawing.json"));
+  const Json rep = Json::parse(read(dir / "report/report.json"));
+  EXPECT_EQ(rep["chosen"], "given");
+  EXPECT_DOUBLE_EQ(rep["position"]["rotation_deg"].get<double>(), 30.0);
+  EXPECT_DOUBLE_EQ(rep["position"]["offset_x_mm"].get<double>(), 4.0);
+  EXPECT_NEAR(rep["position"]["value"].get<double>(),
+              sawing["given_position"]["value"].get<double>(), 1e-9);
+  EXPECT_EQ(rep["boards"].size(), sawing["given_position"]["boards"].size());
+  EXPECT_TRUE(rep["boards_rebuilt"].get<bool>()) << rep["boards_note"];
+}
+
+TEST(Report, BoardsComeFromSawingJsonWhenThePatternFileHasMoved) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  Json run = Json::parse(read(dir / "run.json"));
+  run["options"]["pattern"] = (dir / "moved.pattern.json").string();
+  test::write_file(dir / "run.json", run.dump());
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  const Json rep = Json::parse(read(dir / "report/report.json"));
+  EXPECT_FALSE(rep["boards_rebuilt"].get<bool>());
+  EXPECT_NE(rep["boards_note"].get<std::string>().find("moved.pattern.json"), std::string::npos)
+      << rep["boards_note"];
+  const Json sawing = Json::parse(read(dir / "sawing.json"));
+  EXPECT_EQ(rep["boards"].size(), chosen_boards(sawing).size());
+  EXPECT_TRUE(fs::exists(dir / "report/images/board_01.png"));
+}
+
+TEST(Report, MissingSawingJsonIsNamedAndNoReportIsLeft) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  fs::remove(dir / "sawing.json");
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("report -q " + test::quoted(dir.path()), &out), 1);
+  EXPECT_NE(out.find("sawing.json"), std::string::npos) << out;
+  EXPECT_NE(out.find("missing"), std::string::npos) << out;
+  EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+  EXPECT_FALSE(fs::exists(dir / "report"));
+}
+
+TEST(Report, CorruptJsonIsNamedAndNoReportIsLeft) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  for (const char* name : {"sawing.json", "run.json"}) {
+    const std::string good = read(dir / name);
+    test::write_file(dir / name, good.substr(0, good.size() / 2));
+    std::string out;
+    EXPECT_EQ(test::run_sawyer("report -q " + test::quoted(dir.path()), &out), 1);
+    EXPECT_NE(out.find(name), std::string::npos) << out;
+    EXPECT_NE(out.find("not valid JSON"), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / "report"));
+    test::write_file(dir / name, good);
+  }
+  // A log.json that does not parse names itself too.
+  test::write_file(dir / "scan/log.json", "{\"format\": \"sawyer-log/1\"");
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("report -q " + test::quoted(dir.path()), &out), 1);
+  EXPECT_NE(out.find("log.json"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "report"));
+}
+
+TEST(Report, LogIdMismatchIsNamedAndNoReportIsLeft) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  Json s = Json::parse(read(dir / "sawing.json"));
+  s["log"] = "another_log";
+  test::write_file(dir / "sawing.json", s.dump());
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("report -q " + test::quoted(dir.path()), &out), 1);
+  EXPECT_NE(out.find("sawing.json"), std::string::npos) << out;
+  EXPECT_NE(out.find("another_log"), std::string::npos) << out;
+  EXPECT_NE(out.find("gran1_spruce"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "report"));
+}
+
+TEST(Report, ExistingReportIsReplacedWholeOnlyOnSuccess) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  test::write_file(dir / "report/old.txt", "an old report");
+  // A failure (a broken sawing.json) leaves the old report as it was.
+  const std::string good = read(dir / "sawing.json");
+  test::write_file(dir / "sawing.json", "[]");
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("report -q " + test::quoted(dir.path()), &out), 1);
+  EXPECT_TRUE(fs::exists(dir / "report/old.txt"));
+  EXPECT_FALSE(fs::exists(dir / "report/report.pdf"));
+  // Success replaces it whole.
+  test::write_file(dir / "sawing.json", good);
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  EXPECT_FALSE(fs::exists(dir / "report/old.txt"));
+  for (const char* f : {"report.pdf", "report.html", "boards.csv", "report.json",
+                        "images/end_view.png", "images/board_01.png"})
+    EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+TEST(BoardPlacement, MapsBackToThePatternFrame) {
+  const LogModel& model = test::sample_model("gran1_spruce");
+  const sawing::SawLog log(model);
+  const sawing::LogPosition pos{37.0, 6.0, -3.0};
+  const sawing::SawResult r = sawing::saw(log, sawing::two_ex_pattern({}), pos);
+  ASSERT_FALSE(r.boards.empty());
+  const double phi = sawing::pattern_rotation(log, pos);
+  for (const sawing::Board& b : r.boards) {
+    const sawing::BoardPlacement p = sawing::board_placement(log, b, pos);
+    // The centre, turned back into the pattern frame, is the board's (u, v).
+    const Vec2 o = log.line_at(0.5 * (p.z0 + p.z1));
+    const double dx = p.cx - o.x, dy = p.cy - o.y;
+    EXPECT_NEAR(std::cos(phi) * dx - std::sin(phi) * dy - pos.offset_x_mm, b.u_mm, 1e-9);
+    EXPECT_NEAR(std::sin(phi) * dx + std::cos(phi) * dy - pos.offset_y_mm, b.v_mm, 1e-9);
+    // The width runs along pattern v for a board whose thickness runs along u, else along u.
+    const Vec2 wdir{std::cos(p.rotation), std::sin(p.rotation)};
+    const double wu = std::cos(phi) * wdir.x - std::sin(phi) * wdir.y;
+    EXPECT_NEAR(std::abs(wu), b.thickness_axis == sawing::ThicknessAxis::kU ? 0.0 : 1.0, 1e-9);
+    EXPECT_EQ(p.width, b.width_mm);
+    EXPECT_EQ(p.thickness, b.thickness_mm);
+    EXPECT_EQ(p.z0, b.z_begin);
+  }
+}

@@ -1,0 +1,200 @@
+// `sawyer run`: a CT folder in, the run folder out (scan/, sawing.json, run.json, report/) and
+// the log in the register; bad input stops it with one line naming the problem, before or after
+// the scan, and leaves neither output nor a register row.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "sawyer/register/log_register.h"
+#include "sawyer/test/test_util.h"
+
+using namespace sawyer;
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+// 40 cm of the real spruce log at 1.2 mm pixels: small enough to scan in a second or two.
+fs::path small_ct() {
+  static const fs::path p = test::cached_phantom(
+      "gran1_40cm", test::quoted(test::sample_log("gran1_spruce") / "log.json") +
+                        " --from-mm 1000 --to-mm 1400 --size 320 --pixel-mm 1.2 --seed 3");
+  return p;
+}
+
+// 2ex with boards kept from 200 mm: the test log is short.
+fs::path short_pattern(const test::TempDir& dir) {
+  const fs::path p = dir / "short_2ex.json";
+  test::write_file(p, R"({"format": "sawyer-pattern/1", "name": "2ex short",
+    "wane": {"min_length_mm": 200, "length_step_mm": 100},
+    "boards": [
+      {"name": "centre 1", "u_mm": -26.5, "v_mm": 0, "thickness_mm": 50, "width_mm": 150},
+      {"name": "centre 2", "u_mm": 26.5, "v_mm": 0, "thickness_mm": 50, "width_mm": 150},
+      {"name": "side 1", "u_mm": -67.0, "v_mm": 0, "thickness_mm": 25, "width_mm": 100,
+       "edged": true},
+      {"name": "side 2", "u_mm": 67.0, "v_mm": 0, "thickness_mm": 25, "width_mm": 100,
+       "edged": true}]})");
+  return p;
+}
+
+Json read_json(const fs::path& p) {
+  std::ifstream f(p);
+  return Json::parse(f, nullptr, false);
+}
+
+size_t lines(const std::string& s) {
+  size_t n = 0;
+  for (char ch : s) n += ch == '\n';
+  return n;
+}
+
+int rows(const fs::path& db) {
+  auto reg = reg::LogRegister::open_read_only(db);
+  if (!reg) return -1;
+  auto n = reg.value().count();
+  return n ? n.value() : -1;
+}
+
+}  // namespace
+
+TEST(RunCli, WritesScanSawingReportAndRegistersTheLog) {
+  const fs::path ct = small_ct();
+  ASSERT_FALSE(ct.empty());
+  test::TempDir dir;
+  std::string out;
+  const std::string cmd = "run " + test::quoted(ct) + " -o " + test::quoted(dir / "out") +
+                          " --pattern " + test::quoted(short_pattern(dir)) + " --db " +
+                          test::quoted(dir / "logs.sqlite") + " --id g40 --species spruce";
+  ASSERT_EQ(test::run_sawyer(cmd, &out), 0) << out;
+  for (const char* f : {"scan/log.json", "scan/qa/pith_track.png", "sawing.json", "run.json",
+                        "report/report.pdf", "report/report.html", "report/boards.csv",
+                        "report/report.json"})
+    EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  const Json saw = read_json(dir / "out" / "sawing.json");
+  ASSERT_FALSE(saw.is_discarded());
+  EXPECT_EQ(saw["log"], "g40");
+  EXPECT_EQ(saw["chosen"], "best");
+  EXPECT_GT(saw["boards"].size(), 0u);
+  const Json run = read_json(dir / "out" / "run.json");
+  ASSERT_FALSE(run.is_discarded());
+  EXPECT_EQ(run["format"], "sawyer-run/1");
+  EXPECT_EQ(run["species"], "spruce");
+  EXPECT_EQ(fs::path(run["scan_source"].get<std::string>()), fs::canonical(ct));
+  EXPECT_FALSE(run["scan_checksum"].get<std::string>().empty());
+  ASSERT_GE(run["stages"].size(), 2u);
+  EXPECT_EQ(run["stages"][0]["name"], "scan");
+  EXPECT_EQ(run["stages"][1]["name"], "saw");
+  // The summary ends with where the report is.
+  EXPECT_NE(out.find("report.pdf"), std::string::npos) << out;
+  EXPECT_NE(out.find("volume yield"), std::string::npos) << out;
+
+  // The register holds the log with the chosen position and value of sawing.json.
+  auto reg = reg::LogRegister::open_read_only(dir / "logs.sqlite");
+  ASSERT_TRUE(reg) << reg.error().message();
+  auto row = reg.value().find(fs::canonical(ct).string());
+  ASSERT_TRUE(row && row.value()) << out;
+  const reg::LogRecord& r = *row.value();
+  EXPECT_EQ(r.log_id, "g40");
+  EXPECT_NEAR(r.value, saw["best"]["value"].get<double>(), 1e-6);
+  EXPECT_NEAR(r.rotation_deg, saw["best"]["rotation_deg"].get<double>(), 1e-9);
+  EXPECT_GT(r.knot_count, 0);
+  EXPECT_EQ(fs::path(r.report_path), fs::absolute(dir / "out" / "report" / "report.pdf"));
+
+  // The same folder again: the row is updated, not duplicated.
+  ASSERT_EQ(test::run_sawyer(cmd + " --quiet", &out), 0) << out;
+  EXPECT_EQ(rows(dir / "logs.sqlite"), 1);
+  auto again = reg.value().find(fs::canonical(ct).string());
+  ASSERT_TRUE(again && again.value());
+  EXPECT_EQ(again.value()->scans, 2);
+}
+
+TEST(RunCli, GivenPositionIsTheChosenOne) {
+  const fs::path ct = small_ct();
+  ASSERT_FALSE(ct.empty());
+  test::TempDir dir;
+  std::string out;
+  ASSERT_EQ(test::run_sawyer("run " + test::quoted(ct) + " -o " + test::quoted(dir / "out") +
+                                 " --pattern " + test::quoted(short_pattern(dir)) +
+                                 " --position 37,4,0 --no-register --no-report -q",
+                             &out),
+            0)
+      << out;
+  const Json saw = read_json(dir / "out" / "sawing.json");
+  ASSERT_FALSE(saw.is_discarded());
+  EXPECT_EQ(saw["chosen"], "given");
+  EXPECT_DOUBLE_EQ(saw["given_position"]["rotation_deg"].get<double>(), 37.0);
+  EXPECT_DOUBLE_EQ(saw["given_position"]["offset_x_mm"].get<double>(), 4.0);
+  EXPECT_NE(out.find("given position rot 37.0°"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "out" / "report"));
+}
+
+TEST(RunCli, BadCtFolderGivesOneLineAndLeavesNothing) {
+  test::TempDir dir;
+  fs::create_directories(dir / "ct");
+  test::write_file(dir / "ct" / "slice_0001.dcm", "this is not a DICOM file\n");
+  test::write_file(dir / "ct" / "slice_0002.dcm", "nor is this\n");
+  // An earlier good run's folder must survive a failed run over it.
+  fs::create_directories(dir / "out");
+  test::write_file(dir / "out" / "keep.txt", "earlier run\n");
+  std::string out;
+  EXPECT_NE(test::run_sawyer("run " + test::quoted(dir / "ct") + " -o " +
+                                 test::quoted(dir / "out") + " -q --db " +
+                                 test::quoted(dir / "logs.sqlite"),
+                             &out),
+            0);
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_NE(out.find((dir / "ct").string()), std::string::npos) << out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "keep.txt"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "report"));
+  EXPECT_EQ(rows(dir / "logs.sqlite"), 0);
+}
+
+TEST(RunCli, MissingAndEmptyCtFoldersAreRefused) {
+  test::TempDir dir;
+  fs::create_directories(dir / "empty");
+  for (const char* name : {"missing", "empty"}) {
+    std::string out;
+    EXPECT_NE(test::run_sawyer("run " + test::quoted(dir / name) + " -o " +
+                                   test::quoted(dir / "out") + " -q --no-register",
+                               &out),
+              0)
+        << name;
+    EXPECT_EQ(lines(out), 1u) << out;
+    EXPECT_NE(out.find(name), std::string::npos) << out;
+    EXPECT_FALSE(fs::exists(dir / "out")) << name;
+  }
+}
+
+TEST(RunCli, BadPatternIsRefusedBeforeTheScan) {
+  test::TempDir dir;
+  test::write_file(dir / "p.json", R"({"format": "sawyer-pattern/1", "boards": 3})");
+  std::string out;
+  // The CT folder does not exist either: the pattern is checked first.
+  EXPECT_NE(test::run_sawyer("run " + test::quoted(dir / "no_ct") + " -o " +
+                                 test::quoted(dir / "out") + " -q --no-register --pattern " +
+                                 test::quoted(dir / "p.json"),
+                             &out),
+            0);
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_NE(out.find("p.json"), std::string::npos) << out;
+  EXPECT_NE(out.find("boards"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+TEST(RunCli, ABadRegisterFileIsRefusedBeforeTheScan) {
+  test::TempDir dir;
+  test::write_file(dir / "logs.sqlite", std::string(4096, 'x'));
+  std::string out;
+  EXPECT_NE(test::run_sawyer("run " + test::quoted(dir / "no_ct") + " -o " +
+                                 test::quoted(dir / "out") + " -q --db " +
+                                 test::quoted(dir / "logs.sqlite"),
+                             &out),
+            0);
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_NE(out.find("logs.sqlite"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
