@@ -1,9 +1,17 @@
 // Value gain of the positioning optimiser (libs/sawing): per log, the value at horns-down,
 // horns-up and the best position (expected values under the positioning error, σ 5° / 2 mm, and
 // the values at the positions themselves), the gain over horns-down, the average gain; then the
-// speed of grading positions for gran1 on a 180 × 11 grid (2° over 360°, offsets ±10 mm step 2).
+// speed of grading positions for gran1 on a 180 × 11 grid (2° over 360°, offsets ±10 mm step 2)
+// with each bundled pattern (2ex, 4ex, tt) on 1 thread and on --threads threads (best of
+// --repeats; wall clock, so noisy on a shared machine).
 //
 //   build-saw/bench/value_bench [--random 20] [--grading nordic|gost|file] [--threads 2]
+//                               [--repeats 3] [--speed-only 1] [--only 2ex|4ex|tt]
+//                               [--speed-rot-step 2]
+//
+// For instruction counts: valgrind --tool=callgrind --toggle-collect='*optimise_position*'
+// build-saw/bench/value_bench --random 0 --speed-only 1 --repeats 1 --threads 1 --only tt
+// --speed-rot-step 45 (88 positions; saw() and value_of() show as its callees).
 //
 // Logs: the three bundled logs and `--random N` generated ones (spruce and pine alternately,
 // seeds 1..N; pine_s8 and spruce_s77 are the bundled ones and counted once). Pattern 2ex 50×150
@@ -23,6 +31,7 @@
 #include "sawyer/sawing/optimise.h"
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/setup.h"
 #include "sawyer/sawing/value.h"
 
 using namespace sawyer;
@@ -30,7 +39,10 @@ using namespace sawyer::sawing;
 
 int main(int argc, char** argv) {
   const std::string src = SAWYER_SOURCE_DIR;
-  int random = 20, threads = 2;
+  int random = 20, threads = 2, repeats = 3;
+  double speed_rot_step = 2;
+  bool speed_only = false;
+  std::string only;
   std::string grading = "nordic";
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--random"))
@@ -39,6 +51,14 @@ int main(int argc, char** argv) {
       grading = argv[i + 1];
     else if (!std::strcmp(argv[i], "--threads"))
       threads = std::max(1, std::atoi(argv[i + 1]));
+    else if (!std::strcmp(argv[i], "--repeats"))
+      repeats = std::max(1, std::atoi(argv[i + 1]));
+    else if (!std::strcmp(argv[i], "--speed-only"))
+      speed_only = std::atoi(argv[i + 1]) != 0;
+    else if (!std::strcmp(argv[i], "--speed-rot-step"))
+      speed_rot_step = std::atof(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--only"))
+      only = argv[i + 1];
   }
   const std::string grading_path = grading == "nordic"
                                        ? src + "/data/grading/nordic_appearance.json"
@@ -98,6 +118,7 @@ int main(int argc, char** argv) {
   double gain_sum = 0;
   int n = 0;
   for (const LogModel& log : logs) {
+    if (speed_only) break;
     const SawLog saw_log(log);
     const Pattern* p = &wide_p;
     if (!check_pattern_fits(*p, saw_log.usable_diameter_mm(), log.id)) p = &narrow_p;
@@ -128,22 +149,37 @@ int main(int argc, char** argv) {
   if (n)
     std::printf("\naverage gain over horns-down: %+.1f %% over %d logs\n", 100 * gain_sum / n, n);
 
-  // Speed: gran1, 2° over the full 360° (180 rotations) × 11 offsets, graded and valued.
+  // Speed: gran1, 2° over the full 360° (180 rotations) × 11 offsets, graded and valued, for
+  // every bundled pattern on 1 thread and on `threads` threads.
   OptimiseOptions speed = o;
   speed.rot_range_deg = 360;
+  speed.rot_step_deg = speed_rot_step;
   const SawLog gran1(logs[0]);
-  double best_s = 1e9;
-  int positions = 0;
-  for (int rep = 0; rep < 3; ++rep) {
-    Result<OptimiseResult> r =
-        optimise_position(gran1, wide_p, rules.value(), prices.value(), speed);
-    if (!r) return 1;
-    best_s = std::min(best_s, r.value().seconds);
-    positions = r.value().positions;
+  std::printf("\nspeed: %s, %.0f × 11 grid (%g° over 360°, offsets ±10 mm step 2), graded and "
+              "valued, best of %d\n\n",
+              logs[0].id.c_str(), 360 / speed_rot_step, speed_rot_step, repeats);
+  std::printf("| pattern | threads | positions | seconds | positions/s |\n");
+  std::printf("|---|---:|---:|---:|---:|\n");
+  for (const char* name : {"2ex", "4ex", "tt"}) {
+    if (!only.empty() && only != name) continue;
+    const Result<Pattern> pat = pattern_by_name(name);
+    if (!pat) return 1;
+    for (int th : {1, threads}) {
+      if (th == 1 && threads == 1 && th != threads) continue;
+      speed.threads = th;
+      double best_s = 1e9;
+      int positions = 0;
+      for (int rep = 0; rep < repeats; ++rep) {
+        Result<OptimiseResult> r =
+            optimise_position(gran1, pat.value(), rules.value(), prices.value(), speed);
+        if (!r) return 1;
+        best_s = std::min(best_s, r.value().seconds);
+        positions = r.value().positions;
+      }
+      std::printf("| %s | %d | %d | %.3f | %.0f |\n", name, th, positions, best_s,
+                  positions / best_s);
+      if (threads == 1) break;
+    }
   }
-  std::printf(
-      "\nspeed: %s, %d positions (180 × 11) graded and valued on %d threads in %.3f s: "
-      "%.0f positions/s (best of 3)\n",
-      logs[0].id.c_str(), positions, threads, best_s, positions / best_s);
   return 0;
 }

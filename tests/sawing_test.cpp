@@ -5,9 +5,13 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <random>
 
+#include "sawyer/model/log_generator.h"
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/setup.h"
+#include "sawyer/sawing/value.h"
 #include "sawyer/test/test_util.h"
 
 using namespace sawyer;
@@ -471,4 +475,298 @@ TEST(Sawing, Gran1TwoExAtHornsDown) {
     }
   }
   EXPECT_FALSE(r.boards[0].knots.empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Equivalence of saw() with a straightforward reference: the wane, trimming and edging exactly as
+// first written (every stem sample, every side searched to 0.01 mm, the full wane at every
+// bisection step; outline look-ups with atan2 only), kept here so that the fast path (ok-only
+// checks, sector-bound certificates, the wane computed only over the trimmed board) can be checked
+// against it on real and generated logs at random positions: the same boards, bit for bit, and so
+// the same grades and values.
+namespace reference {
+
+struct Wane {
+  double side[4];
+  double area;
+  bool ok;
+};
+
+struct Geometry {
+  const SawLog* log;
+  double c, s, ox, oy;
+  // Scanner point of pattern (u, v) at stem sample i.
+  Vec2 at(int i, double u, double v) const {
+    const double pu = u + ox, pv = v + oy;
+    const double qx = c * pu + s * pv, qy = -s * pu + c * pv;
+    const Vec2 l = log->line_at(log->model().stem.z_at(i));
+    return {l.x + qx, l.y + qy};
+  }
+  double outline(int i, double dx, double dy) const {
+    const std::vector<double>& rad = log->model().stem.radius[i];
+    const int na = static_cast<int>(rad.size());
+    double w = std::atan2(dy, dx);
+    if (w < 0) w += kTwoPi;
+    const double f = w * na / kTwoPi;
+    int i0 = static_cast<int>(f);
+    const double t = f - i0;
+    i0 %= na;
+    return (1 - t) * rad[i0] + t * rad[(i0 + 1) % na];
+  }
+  bool inside(int i, double u, double v) const {
+    const Stem& stem = log->model().stem;
+    const Vec2 p = at(i, u, v), c0 = stem.pith[i];
+    const double dx = p.x - c0.x, dy = p.y - c0.y, r2 = dx * dx + dy * dy;
+    const std::vector<double>& rad = stem.radius[i];
+    const double lo = *std::min_element(rad.begin(), rad.end());
+    const double hi = *std::max_element(rad.begin(), rad.end());
+    if (r2 <= lo * lo) return true;
+    if (r2 > hi * hi) return false;
+    const double R = outline(i, dx, dy);
+    return r2 <= R * R;
+  }
+  double outside_by(int i, double u, double v) const {
+    const Vec2 p = at(i, u, v), c0 = log->model().stem.pith[i];
+    const double dx = p.x - c0.x, dy = p.y - c0.y;
+    return std::sqrt(dx * dx + dy * dy) - outline(i, dx, dy);
+  }
+};
+
+double cross(const Geometry& g, int i, double au, double av, double bu, double bv) {
+  double lo = 0, hi = 1;
+  double glo = g.outside_by(i, au, av), ghi = g.outside_by(i, bu, bv);
+  const double seg = std::hypot(bu - au, bv - av);
+  int side = 0;
+  for (int k = 0; k < 24 && (hi - lo) * seg > 0.01; ++k) {
+    double m = (glo - ghi) > 1e-12 ? lo + (hi - lo) * glo / (glo - ghi) : 0.5 * (lo + hi);
+    m = std::clamp(m, lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo));
+    const double gm = g.outside_by(i, au + m * (bu - au), av + m * (bv - av));
+    if (std::abs(gm) < 1e-4) return m;
+    if (gm > 0) {
+      lo = m;
+      glo = gm;
+      if (side == -1) ghi *= 0.5;
+      side = -1;
+    } else {
+      hi = m;
+      ghi = gm;
+      if (side == 1) glo *= 0.5;
+      side = 1;
+    }
+  }
+  return 0.5 * (lo + hi);
+}
+
+void ends(const Geometry& g, int i, double pu, double pv, bool pin, double qu, double qv, bool qin,
+          double len, double* op, double* oq) {
+  *op = *oq = 0;
+  if (pin && qin) return;
+  if (!pin && !qin) {
+    const double mu = 0.5 * (pu + qu), mv = 0.5 * (pv + qv);
+    if (!g.inside(i, mu, mv)) {
+      *op = *oq = 0.5 * len;
+      return;
+    }
+    *op = 0.5 * len * cross(g, i, pu, pv, mu, mv);
+    *oq = 0.5 * len * cross(g, i, qu, qv, mu, mv);
+    return;
+  }
+  if (!pin)
+    *op = len * cross(g, i, pu, pv, qu, qv);
+  else
+    *oq = len * cross(g, i, qu, qv, pu, pv);
+}
+
+Wane slice(const Geometry& g, double cu0, double cv0, double ht, double hw, int ta,
+           const WaneRules& rules, int i) {
+  const double ca[4] = {ht, ht, -ht, -ht}, cb[4] = {-hw, hw, hw, -hw};
+  double cu[4], cv[4];
+  bool in[4];
+  for (int k = 0; k < 4; ++k) {
+    cu[k] = cu0 + (ta == 0 ? ca[k] : cb[k]);
+    cv[k] = cv0 + (ta == 0 ? cb[k] : ca[k]);
+    in[k] = g.inside(i, cu[k], cv[k]);
+  }
+  const double w = 2 * hw, t = 2 * ht;
+  if (in[0] && in[1] && in[2] && in[3]) return Wane{{0, 0, 0, 0}, 0, true};
+  double e[4][2];
+  ends(g, i, cu[0], cv[0], in[0], cu[1], cv[1], in[1], w, &e[0][0], &e[0][1]);
+  ends(g, i, cu[3], cv[3], in[3], cu[2], cv[2], in[2], w, &e[1][0], &e[1][1]);
+  ends(g, i, cu[2], cv[2], in[2], cu[1], cv[1], in[1], t, &e[2][0], &e[2][1]);
+  ends(g, i, cu[3], cv[3], in[3], cu[0], cv[0], in[0], t, &e[3][0], &e[3][1]);
+  Wane sw;
+  for (int k = 0; k < 4; ++k) sw.side[k] = e[k][0] + e[k][1];
+  sw.area = 0.5 * (e[0][1] * e[2][1] + e[0][0] * e[3][1] + e[1][1] * e[2][0] + e[1][0] * e[3][0]);
+  sw.ok = sw.side[0] <= rules.max_face_fraction * w && sw.side[1] <= rules.max_face_fraction * w &&
+          sw.side[2] <= rules.max_edge_fraction * t && sw.side[3] <= rules.max_edge_fraction * t &&
+          sw.side[0] < w && sw.side[1] < w && sw.side[2] < t && sw.side[3] < t;
+  return sw;
+}
+
+bool trim(const Stem& stem, const std::vector<bool>& ok, const WaneRules& rules, double* zb,
+          double* ze) {
+  int best0 = 0, best_n = 0, run0 = 0, run_n = 0;
+  for (int i = 0; i < static_cast<int>(ok.size()); ++i) {
+    if (ok[i]) {
+      if (run_n == 0) run0 = i;
+      if (++run_n > best_n) {
+        best_n = run_n;
+        best0 = run0;
+      }
+    } else {
+      run_n = 0;
+    }
+  }
+  if (best_n == 0) return false;
+  const double run = best_n * stem.dz_mm;
+  const double len = rules.length_step_mm > 0
+                         ? std::floor(run / rules.length_step_mm + 1e-9) * rules.length_step_mm
+                         : run;
+  if (len <= 0 || len < rules.min_length_mm) return false;
+  const double mid = stem.z_at(best0) - 0.5 * stem.dz_mm + 0.5 * run;
+  *zb = mid - 0.5 * len;
+  *ze = mid + 0.5 * len;
+  return true;
+}
+
+// The boards' geometry (spec, width, z range, volumes, wane) with knots left empty.
+std::vector<Board> boards(const SawLog& log, const Pattern& pattern, const sawing::LogPosition& pos) {
+  const Stem& stem = log.model().stem;
+  const int n = stem.slice_count();
+  const double phi = (1.5 * kPi - log.bow().horns_azimuth) + pos.rotation_deg * kPi / 180.0;
+  const Geometry g{&log, std::cos(phi), std::sin(phi), pos.offset_x_mm, pos.offset_y_mm};
+  std::vector<Board> out;
+  for (size_t bi = 0; bi < pattern.boards.size(); ++bi) {
+    const BoardSpec& spec = pattern.boards[bi];
+    const int ta = spec.thickness_axis == ThicknessAxis::kU ? 0 : 1;
+    const double ht = 0.5 * spec.thickness_mm;
+    std::vector<double> widths;
+    if (spec.edged)
+      for (double w : pattern.standard_widths_mm)
+        if (w <= spec.width_mm + 1e-9) widths.push_back(w);
+    if (widths.empty()) widths.push_back(spec.width_mm);
+    std::sort(widths.begin(), widths.end());
+    const int m = static_cast<int>(widths.size());
+    std::vector<int> widest(n, -1);
+    for (int i = 0; i < n; ++i) {
+      int lo = -1, hi = m;
+      while (hi - lo > 1) {
+        const int mid = (lo + hi) / 2;
+        const Wane sw =
+            slice(g, spec.u_mm, spec.v_mm, ht, 0.5 * widths[mid], ta, pattern.wane, i);
+        (sw.ok ? lo : hi) = mid;
+      }
+      widest[i] = lo;
+    }
+    double best_value = 0, best_w = 0, best_zb = 0, best_ze = 0;
+    for (int k = m - 1; k >= 0; --k) {
+      if (widths[k] * stem.length_mm() <= best_value) break;
+      std::vector<bool> ok(n);
+      for (int i = 0; i < n; ++i) ok[i] = widest[i] >= k;
+      double zb, ze;
+      if (!trim(stem, ok, pattern.wane, &zb, &ze)) continue;
+      if (widths[k] * (ze - zb) > best_value) {
+        best_value = widths[k] * (ze - zb);
+        best_w = widths[k];
+        best_zb = zb;
+        best_ze = ze;
+      }
+    }
+    if (best_value <= 0) continue;
+    Board b;
+    b.spec = static_cast<int>(bi);
+    b.thickness_mm = spec.thickness_mm;
+    b.width_mm = best_w;
+    b.z_begin = best_zb;
+    b.z_end = best_ze;
+    b.box_volume_m3 = spec.thickness_mm * best_w * (best_ze - best_zb) * 1e-9;
+    double missing = 0;
+    for (int i = 0; i < n; ++i) {
+      const double z = stem.z_at(i);
+      const double ov =
+          std::min(z + 0.5 * stem.dz_mm, best_ze) - std::max(z - 0.5 * stem.dz_mm, best_zb);
+      if (ov <= 0) continue;
+      const Wane sw = slice(g, spec.u_mm, spec.v_mm, ht, 0.5 * best_w, ta, pattern.wane, i);
+      missing += sw.area * ov;
+      for (int k = 0; k < 4; ++k) {
+        b.wane[k].max_mm = std::max(b.wane[k].max_mm, sw.side[k]);
+        if (sw.side[k] > 0) b.wane[k].length_mm += ov;
+      }
+    }
+    b.volume_m3 = b.box_volume_m3 - missing * 1e-9;
+    out.push_back(b);
+  }
+  return out;
+}
+
+}  // namespace reference
+
+TEST(Sawing, FastPathEqualsTheReferenceOnRealAndGeneratedLogs) {
+  std::vector<LogModel> logs{test::sample_model("gran1_spruce")};
+  GeneratorOptions go;
+  go.species = Species::kPine;
+  go.seed = 5;
+  Result<LogModel> gen = generate_log(go);
+  ASSERT_TRUE(gen.ok()) << gen.error().message();
+  logs.push_back(std::move(gen.value()));
+  const GradingRules rules = grading_by_name("nordic").value();
+  const PriceTable prices = prices_by_name("").value();
+  CantOptions four;
+  four.centre_thickness_mm = 38;
+  four.centre_width_mm = 100;
+  four.side_thickness_mm = 19;
+  Pattern turned = two_ex_pattern({});  // boards with faces v = const
+  for (BoardSpec& b : turned.boards) {
+    std::swap(b.u_mm, b.v_mm);
+    b.thickness_axis = ThicknessAxis::kV;
+  }
+  const Pattern patterns[] = {two_ex_pattern({}), four_ex_pattern(four),
+                              through_and_through_pattern(7, 25.0), turned};
+  std::mt19937_64 rng(20261124);
+  std::uniform_real_distribution<double> rot(0, 360), ox(-12, 12), oy(-5, 5);
+  int compared = 0, waned = 0;
+  for (const LogModel& log : logs) {
+    const SawLog saw_log(log);
+    for (const Pattern& p : patterns) {
+      for (int k = 0; k < 16; ++k) {
+        const sawing::LogPosition pos{rot(rng), ox(rng), k % 3 == 0 ? oy(rng) : 0.0};
+        SCOPED_TRACE(log.id + " " + p.name + " at " + std::to_string(pos.rotation_deg) + "° " +
+                     std::to_string(pos.offset_x_mm) + " " + std::to_string(pos.offset_y_mm));
+        const SawResult fast = saw(saw_log, p, pos);
+        const std::vector<Board> ref = reference::boards(saw_log, p, pos);
+        ASSERT_EQ(fast.boards.size(), ref.size());
+        SawResult with_ref = fast;  // the reference geometry with the fast path's knots
+        for (size_t b = 0; b < ref.size(); ++b) {
+          const Board& f = fast.boards[b];
+          const Board& r = ref[b];
+          EXPECT_EQ(f.spec, r.spec);
+          EXPECT_EQ(f.width_mm, r.width_mm);
+          EXPECT_EQ(f.z_begin, r.z_begin);
+          EXPECT_EQ(f.z_end, r.z_end);
+          EXPECT_EQ(f.box_volume_m3, r.box_volume_m3);
+          EXPECT_EQ(f.volume_m3, r.volume_m3);
+          for (int s = 0; s < 4; ++s) {
+            EXPECT_EQ(f.wane[s].max_mm, r.wane[s].max_mm) << "side " << s;
+            EXPECT_EQ(f.wane[s].length_mm, r.wane[s].length_mm) << "side " << s;
+            waned += f.wane[s].max_mm > 0;
+          }
+          Board& w = with_ref.boards[b];
+          w.width_mm = r.width_mm;
+          w.z_begin = r.z_begin;
+          w.z_end = r.z_end;
+          w.box_volume_m3 = r.box_volume_m3;
+          w.volume_m3 = r.volume_m3;
+          w.wane = r.wane;
+        }
+        const LogValue vf = value_of(fast, rules, prices), vr = value_of(with_ref, rules, prices);
+        ASSERT_EQ(vf.boards.size(), vr.boards.size());
+        for (size_t b = 0; b < vf.boards.size(); ++b)
+          EXPECT_EQ(vf.boards[b].grade.grade, vr.boards[b].grade.grade);
+        EXPECT_NEAR(vf.value, vr.value, 1e-9 * std::max(1.0, vr.value));
+        ++compared;
+      }
+    }
+  }
+  EXPECT_EQ(compared, 2 * 4 * 16);
+  EXPECT_GT(waned, 100);  // the positions exercise the wane code, not only clear boards
 }

@@ -61,6 +61,43 @@ SawLog::SawLog(const LogModel& model, int knot_samples) : model_(&model) {
     rmin2_[i] = lo * lo;
     rmax2_[i] = hi * hi;
   }
+  line_at_slice_.resize(n);
+  for (int i = 0; i < n; ++i) line_at_slice_[i] = line_at(stem.z_at(i));
+
+  // Sector bounds for inside(). Sector j covers diamond angles [4j/K, 4(j+1)/K) (quadrant q =
+  // floor(d), fraction f: azimuth q·π/2 + atan2(f, 1 − f)). The exact test interpolates between
+  // table entries i0 = floor(ω·na/2π) and i0 + 1, so a sector's bounds are the min / max of the
+  // entries from floor(ω_begin) to floor(ω_end) + 1, the azimuths widened by 1e-6 rad for
+  // rounding, and the squared bounds by a relative 1e-9.
+  smin2_.assign(static_cast<size_t>(n) * kSectors, 0.0);
+  smax2_.assign(static_cast<size_t>(n) * kSectors, 0.0);
+  smin_.assign(static_cast<size_t>(n) * kSectors, 0.0);
+  smax_.assign(static_cast<size_t>(n) * kSectors, 0.0);
+  for (int i = 0; i < n; ++i) {
+    const std::vector<double>& rad = stem.radius[i];
+    const int na = static_cast<int>(rad.size());
+    if (na == 0) continue;
+    for (int j = 0; j < kSectors; ++j) {
+      auto azimuth = [](double d) {
+        const double q = std::floor(d), f = d - q;
+        return q * 0.5 * kPi + std::atan2(f, 1 - f);
+      };
+      const double w0 = azimuth(4.0 * j / kSectors) - 1e-6;
+      const double w1 = azimuth(4.0 * (j + 1) / kSectors) + 1e-6;
+      const long k0 = static_cast<long>(std::floor(w0 * na / kTwoPi));
+      const long k1 = static_cast<long>(std::floor(w1 * na / kTwoPi)) + 1;
+      double lo = 1e300, hi = 0;
+      for (long k = k0; k <= k1; ++k) {
+        const double r = rad[static_cast<size_t>(((k % na) + na) % na)];
+        lo = std::min(lo, r);
+        hi = std::max(hi, r);
+      }
+      smin2_[static_cast<size_t>(i) * kSectors + j] = lo * lo * (1 - 1e-9);
+      smax2_[static_cast<size_t>(i) * kSectors + j] = hi * hi * (1 + 1e-9);
+      smin_[static_cast<size_t>(i) * kSectors + j] = lo * (1 - 1e-9);
+      smax_[static_cast<size_t>(i) * kSectors + j] = hi * (1 + 1e-9);
+    }
+  }
 
   // Usable diameter: circle about the mean pith line inscribed in the top end's outline.
   if (n > 0) {
@@ -100,6 +137,67 @@ SawLog::SawLog(const LogModel& model, int knot_samples) : model_(&model) {
   }
 }
 
+namespace {
+
+// Diamond angle of (x, y) ≠ 0 in [0, 4): same quadrant and order as the azimuth.
+inline double diamond(double x, double y) {
+  const double ax = std::abs(x), ay = std::abs(y);
+  if (y >= 0) return x >= 0 ? ay / (ax + ay) : 1 + ax / (ax + ay);
+  return x < 0 ? 2 + ay / (ax + ay) : 3 + ax / (ax + ay);
+}
+
+}  // namespace
+
+bool SawLog::sector_span(double ax, double ay, double bx, double by, int* first, int* count) {
+  const double cr = ax * by - ay * bx;  // > 0: A → B counter-clockwise
+  const double la2 = ax * ax + ay * ay, lb2 = bx * bx + by * by;
+  const double dot = ax * bx + ay * by;
+  // The sweep of a segment not through the pith is below π; refuse near-π sweeps (sin < 1e-3
+  // with the ends on opposite sides) and ends at the pith.
+  if (!(la2 > 1e-12 && lb2 > 1e-12)) return false;
+  if (dot < 0 && cr * cr < 1e-6 * la2 * lb2) return false;
+  const int q = kSectors / 4;
+  int ja = std::min(static_cast<int>(diamond(ax, ay) * q), kSectors - 1);
+  int jb = std::min(static_cast<int>(diamond(bx, by) * q), kSectors - 1);
+  if (cr < 0) std::swap(ja, jb);
+  *first = ja;
+  *count = (jb - ja + kSectors) % kSectors + 1;
+  return true;
+}
+
+bool SawLog::segment_surely_inside(int slice, Vec2 a, Vec2 b, double margin) const {
+  const Vec2 c = model_->stem.pith[slice];
+  const double ax = a.x - c.x, ay = a.y - c.y, bx = b.x - c.x, by = b.y - c.y;
+  // The farthest point of a segment from the pith is an end.
+  const double r = std::sqrt(std::max(ax * ax + ay * ay, bx * bx + by * by)) + margin;
+  if (r * r <= rmin2_[slice] * (1 - 1e-9)) return true;
+  if (r * r > rmax2_[slice]) return false;
+  int j0, cnt;
+  if (!sector_span(ax, ay, bx, by, &j0, &cnt)) return false;
+  const double* lo = &smin_[static_cast<size_t>(slice) * kSectors];
+  for (int k = 0, j = j0; k < cnt; ++k, j = j + 1 == kSectors ? 0 : j + 1)
+    if (r > lo[j]) return false;
+  return true;
+}
+
+bool SawLog::segment_surely_outside(int slice, Vec2 a, Vec2 b, double margin) const {
+  const Vec2 c = model_->stem.pith[slice];
+  const double ax = a.x - c.x, ay = a.y - c.y, bx = b.x - c.x, by = b.y - c.y;
+  // Nearest point of the segment to the pith.
+  const double ex = bx - ax, ey = by - ay, ee = ex * ex + ey * ey;
+  const double t = ee > 0 ? std::clamp(-(ax * ex + ay * ey) / ee, 0.0, 1.0) : 0.0;
+  const double nx = ax + t * ex, ny = ay + t * ey;
+  const double r = std::sqrt(nx * nx + ny * ny) - margin;
+  if (r * r > rmax2_[slice] * (1 + 1e-9) && r > 0) return true;
+  if (!(r > 0) || r * r <= rmin2_[slice]) return false;
+  int j0, cnt;
+  if (!sector_span(ax, ay, bx, by, &j0, &cnt)) return false;
+  const double* hi = &smax_[static_cast<size_t>(slice) * kSectors];
+  for (int k = 0, j = j0; k < cnt; ++k, j = j + 1 == kSectors ? 0 : j + 1)
+    if (r <= hi[j]) return false;
+  return true;
+}
+
 double SawLog::outside_by(int slice, double x, double y) const {
   const Stem& stem = model_->stem;
   const Vec2 c = stem.pith[slice];
@@ -113,8 +211,9 @@ double SawLog::outside_by(int slice, double x, double y) const {
   const double f = w * na / kTwoPi;
   int i0 = static_cast<int>(f);
   const double t = f - i0;
-  i0 %= na;
-  return r - ((1 - t) * rad[i0] + t * rad[(i0 + 1) % na]);
+  if (i0 >= na) i0 -= na;  // w rounded up to 2π
+  const int i1 = i0 + 1 == na ? 0 : i0 + 1;
+  return r - ((1 - t) * rad[i0] + t * rad[i1]);
 }
 
 bool SawLog::inside(int slice, double x, double y) const {
@@ -128,13 +227,20 @@ bool SawLog::inside(int slice, double x, double y) const {
   const std::vector<double>& rad = stem.radius[slice];
   const int na = static_cast<int>(rad.size());
   if (na == 0) return false;
+  if (r2 > 0) {
+    const int j = std::min(static_cast<int>(diamond(dx, dy) * (kSectors / 4)), kSectors - 1);
+    const size_t at = static_cast<size_t>(slice) * kSectors + j;
+    if (r2 <= smin2_[at]) return true;
+    if (r2 > smax2_[at]) return false;
+  }
   double w = std::atan2(dy, dx);
   if (w < 0) w += kTwoPi;
   const double f = w * na / kTwoPi;
   int i0 = static_cast<int>(f);
   const double t = f - i0;
-  i0 %= na;
-  const double R = (1 - t) * rad[i0] + t * rad[(i0 + 1) % na];
+  if (i0 >= na) i0 -= na;
+  const int i1 = i0 + 1 == na ? 0 : i0 + 1;
+  const double R = (1 - t) * rad[i0] + t * rad[i1];
   return r2 <= R * R;
 }
 

@@ -1,7 +1,9 @@
 #include "sawyer/sawing/sawing.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 namespace sawyer::sawing {
 
@@ -46,13 +48,31 @@ struct Placement {
     const double pu = u + ox, pv = v + oy;
     // q = Rot(−φ)·(pu, pv)
     const double qx = c * pu + s * pv, qy = -s * pu + c * pv;
-    const Vec2 l = log->line_at(log->model().stem.z_at(i));
+    const Vec2 l = log->line_at_slice(i);
     return log->inside(i, l.x + qx, l.y + qy);
+  }
+  Vec2 to_log(int i, double u, double v) const {
+    const double pu = u + ox, pv = v + oy;
+    const double qx = c * pu + s * pv, qy = -s * pu + c * pv;
+    const Vec2 l = log->line_at_slice(i);
+    return {l.x + qx, l.y + qy};
+  }
+  // True when the rectangle [u0, u1] × [v0, v1] lies within the slice's smallest outline radius
+  // about the pith (by a relative 1e-9): then inside() holds at its corners (the same answer,
+  // without the look-up).
+  bool rect_surely_inside(int i, double u0, double u1, double v0, double v1) const {
+    const Vec2 l = log->line_at_slice(i);
+    const Vec2 p = log->model().stem.pith[i];
+    const double qx = p.x - l.x, qy = p.y - l.y;
+    const double pu = c * qx - s * qy - ox, pv = s * qx + c * qy - oy;
+    const double du = std::max(std::abs(u0 - pu), std::abs(u1 - pu));
+    const double dv = std::max(std::abs(v0 - pv), std::abs(v1 - pv));
+    return du * du + dv * dv <= log->min_radius2(i) * (1 - 1e-9);
   }
   double outside_by(int i, double u, double v) const {
     const double pu = u + ox, pv = v + oy;
     const double qx = c * pu + s * pv, qy = -s * pu + c * pv;
-    const Vec2 l = log->line_at(log->model().stem.z_at(i));
+    const Vec2 l = log->line_at_slice(i);
     return log->outside_by(i, l.x + qx, l.y + qy);
   }
 };
@@ -73,51 +93,157 @@ struct Section {
   }
 };
 
+// Fraction of the way from an outside end A to an inside point B at which the outline is
+// crossed: regula falsi (Illinois) on g = pith distance − outline radius, to 0.01 mm.
+// `decide(lo, hi)` is asked before every step with the bracket that holds the answer; when it
+// returns non-zero the search stops and that decision is stored in *decided (the ok-only checks
+// below: whether a wane passes a limit is often clear long before the crossing is found to
+// 0.01 mm). With a decider that always answers 0 this is the plain search.
+template <class Decide>
+double cross(const Placement& pl, int i, double au, double av, double bu, double bv,
+             Decide&& decide, int* decided) {
+  double lo = 0, hi = 1;  // g(lo) > 0 outside, g(hi) ≤ 0 inside
+  double glo = pl.outside_by(i, au, av), ghi = pl.outside_by(i, bu, bv);
+  const double seg = std::hypot(bu - au, bv - av);
+  int side = 0;
+  for (int k = 0; k < kMaxRootSteps && (hi - lo) * seg > 0.01; ++k) {
+    if (const int d = decide(lo, hi)) {
+      *decided = d;
+      return 0.5 * (lo + hi);
+    }
+    double m = (glo - ghi) > 1e-12 ? lo + (hi - lo) * glo / (glo - ghi) : 0.5 * (lo + hi);
+    m = std::clamp(m, lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo));
+    const double gm = pl.outside_by(i, au + m * (bu - au), av + m * (bv - av));
+    if (std::abs(gm) < 1e-4) return m;
+    if (gm > 0) {
+      lo = m;
+      glo = gm;
+      if (side == -1) ghi *= 0.5;
+      side = -1;
+    } else {
+      hi = m;
+      ghi = gm;
+      if (side == 1) glo *= 0.5;
+      side = 1;
+    }
+  }
+  return 0.5 * (lo + hi);
+}
+
+constexpr auto kNoDecision = [](double, double) { return 0; };
+
 // Lengths of segment P→Q (length len) lying outside the log, measured from each end.
 void outside_ends(const Placement& pl, int i, double pu, double pv, bool pin, double qu, double qv,
                   bool qin, double len, double* out_p, double* out_q) {
   *out_p = *out_q = 0;
   if (pin && qin) return;
-  // Fraction of the way from an outside end A to an inside point B at which the outline is
-  // crossed: regula falsi (Illinois) on g = pith distance − outline radius, to 0.01 mm.
-  auto cross = [&](double au, double av, double bu, double bv) {
-    double lo = 0, hi = 1;  // g(lo) > 0 outside, g(hi) ≤ 0 inside
-    double glo = pl.outside_by(i, au, av), ghi = pl.outside_by(i, bu, bv);
-    const double seg = std::hypot(bu - au, bv - av);
-    int side = 0;
-    for (int k = 0; k < kMaxRootSteps && (hi - lo) * seg > 0.01; ++k) {
-      double m = (glo - ghi) > 1e-12 ? lo + (hi - lo) * glo / (glo - ghi) : 0.5 * (lo + hi);
-      m = std::clamp(m, lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo));
-      const double gm = pl.outside_by(i, au + m * (bu - au), av + m * (bv - av));
-      if (std::abs(gm) < 1e-4) return m;
-      if (gm > 0) {
-        lo = m;
-        glo = gm;
-        if (side == -1) ghi *= 0.5;
-        side = -1;
-      } else {
-        hi = m;
-        ghi = gm;
-        if (side == 1) glo *= 0.5;
-        side = 1;
-      }
-    }
-    return 0.5 * (lo + hi);
-  };
+  int unused = 0;
   if (!pin && !qin) {
     const double mu = 0.5 * (pu + qu), mv = 0.5 * (pv + qv);
     if (!pl.inside(i, mu, mv)) {
       *out_p = *out_q = 0.5 * len;
       return;
     }
-    *out_p = 0.5 * len * cross(pu, pv, mu, mv);
-    *out_q = 0.5 * len * cross(qu, qv, mu, mv);
+    *out_p = 0.5 * len * cross(pl, i, pu, pv, mu, mv, kNoDecision, &unused);
+    *out_q = 0.5 * len * cross(pl, i, qu, qv, mu, mv, kNoDecision, &unused);
     return;
   }
   if (!pin)
-    *out_p = len * cross(pu, pv, qu, qv);
+    *out_p = len * cross(pl, i, pu, pv, qu, qv, kNoDecision, &unused);
   else
-    *out_q = len * cross(qu, qv, pu, pv);
+    *out_q = len * cross(pl, i, qu, qv, pu, pv, kNoDecision, &unused);
+}
+
+// Whether the wane x = out_p + out_q of segment P→Q (as outside_ends computes it) keeps
+// x ≤ limit and x < len, deciding from the root brackets where it can: the same answer as
+// computing x, for less work. Floating-point products and sums are monotone, so a bound on the
+// fraction gives a bound on x.
+//
+// Before any root search, a certificate from the outline's radius bounds per sector
+// (SawLog::segment_surely_inside / _outside, no atan2): the search's answer lies within 0.01 mm
+// of a point where the outline is crossed or at a point within 1e-4 mm of the outline (it stops
+// there), so when the part of the side beyond the limit (less 0.011 mm) lies surely inside by
+// more than kSure, the wane is below the limit; when the part up to the limit (plus 0.011 mm)
+// lies surely outside, it is above. Same answer as the search (which converges within its 24
+// steps on every sample seen; equivalence test in tests/sawing_test.cpp).
+constexpr double kSure = 1e-3;  // mm, ≫ the search's 1e-4 stop on |g|
+constexpr double kTol = 0.011;  // mm, > the search's 0.01 mm bracket
+
+// Distance from outside end A towards B (length L) where the crossing surely lies: -1 below
+// `d` (the segment from d on surely inside), +1 beyond d (the segment up to d surely outside),
+// 0 when not sure.
+int crossing_vs(const Placement& pl, int i, Vec2 a, Vec2 b, double len, double d) {
+  if (d - kTol > 0 && d - kTol < len) {
+    const double f = (d - kTol) / len;
+    const Vec2 x{a.x + f * (b.x - a.x), a.y + f * (b.y - a.y)};
+    if (pl.log->segment_surely_inside(i, x, b, kSure)) return -1;
+  }
+  if (d + kTol < len) {
+    const double f = (d + kTol) / len;
+    const Vec2 y{a.x + f * (b.x - a.x), a.y + f * (b.y - a.y)};
+    if (pl.log->segment_surely_outside(i, a, y, kSure)) return 1;
+  }
+  return 0;
+}
+
+bool side_ok(const Placement& pl, int i, double pu, double pv, bool pin, double qu, double qv,
+             bool qin, double len, double limit) {
+  auto ok = [&](double x) { return x <= limit && x < len; };
+  if (pin && qin) return ok(0.0 + 0.0);
+  int decided = 0;
+  const bool sure_ok = limit < 0.999 * len;  // x ≤ limit then also gives x < len
+  if (!pin && !qin) {
+    const double mu = 0.5 * (pu + qu), mv = 0.5 * (pv + qv);
+    if (!pl.inside(i, mu, mv)) return ok(0.5 * len + 0.5 * len);
+    const double half = 0.5 * len;
+    if (sure_ok && limit > 0) {
+      const Vec2 p = pl.to_log(i, pu, pv), q = pl.to_log(i, qu, qv), m = pl.to_log(i, mu, mv);
+      // Each end's wane below limit/2, or either end's above the limit, or both above limit/2.
+      const int cp = crossing_vs(pl, i, p, m, half, 0.5 * limit);
+      const int cq = crossing_vs(pl, i, q, m, half, 0.5 * limit);
+      if (cp < 0 && cq < 0) return true;
+      if (cp > 0 && cq > 0) return false;
+      if (limit + kTol < half) {
+        if (cp > 0 && crossing_vs(pl, i, p, m, half, limit) > 0) return false;
+        if (cq > 0 && crossing_vs(pl, i, q, m, half, limit) > 0) return false;
+      }
+    }
+    // P's part: x ≥ half·lo (Q's part ≥ 0) and x ≤ half·hi + half (Q's part ≤ half).
+    const double fp = cross(
+        pl, i, pu, pv, mu, mv,
+        [&](double lo, double hi) {
+          if (!ok(half * lo)) return -1;
+          if (ok(half * hi + half)) return 1;
+          return 0;
+        },
+        &decided);
+    if (decided) return decided > 0;
+    const double ep = half * fp;
+    const double fq = cross(
+        pl, i, qu, qv, mu, mv,
+        [&](double lo, double hi) {
+          if (!ok(ep + half * lo)) return -1;
+          if (ok(ep + half * hi)) return 1;
+          return 0;
+        },
+        &decided);
+    if (decided) return decided > 0;
+    return ok(ep + half * fq);
+  }
+  if (sure_ok && limit > 0) {
+    const Vec2 p = pl.to_log(i, pu, pv), q = pl.to_log(i, qu, qv);
+    const int c = !pin ? crossing_vs(pl, i, p, q, len, limit) : crossing_vs(pl, i, q, p, len, limit);
+    if (c != 0) return c < 0;
+  }
+  auto dec = [&](double lo, double hi) {
+    if (!ok(len * lo + 0.0)) return -1;
+    if (ok(len * hi + 0.0)) return 1;
+    return 0;
+  };
+  const double f = !pin ? cross(pl, i, pu, pv, qu, qv, dec, &decided)
+                        : cross(pl, i, qu, qv, pu, pv, dec, &decided);
+  if (decided) return decided > 0;
+  return ok(len * f + 0.0);
 }
 
 struct SliceWane {
@@ -129,6 +255,11 @@ struct SliceWane {
 // Wane of a section at stem sample i.
 void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules, int i,
                 SliceWane* out) {
+  const double hu = sec.ta == 0 ? sec.ht : sec.hw, hv = sec.ta == 0 ? sec.hw : sec.ht;
+  if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv)) {
+    *out = SliceWane{{0, 0, 0, 0}, 0, true};
+    return;
+  }
   // Corners: 0 (+t, −w), 1 (+t, +w), 2 (−t, +w), 3 (−t, −w).
   const double ca[4] = {sec.ht, sec.ht, -sec.ht, -sec.ht};
   const double cb[4] = {-sec.hw, sec.hw, sec.hw, -sec.hw};
@@ -158,21 +289,44 @@ void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules,
           sw.side[0] < w && sw.side[1] < w && sw.side[2] < t && sw.side[3] < t;
 }
 
-// Wane of a section at every stem sample.
-void section_wane(const Placement& pl, const Section& sec, const WaneRules& rules,
-                  std::vector<SliceWane>* out) {
-  const int n = pl.log->model().stem.slice_count();
-  out->resize(n);
-  for (int i = 0; i < n; ++i) slice_wane(pl, sec, rules, i, &(*out)[i]);
+// slice_wane(...).ok without computing the wane where the limits decide earlier: the same corner
+// tests, then each side in turn (side_ok), stopping at the first that fails.
+bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, int i) {
+  const double hu = sec.ta == 0 ? sec.ht : sec.hw, hv = sec.ta == 0 ? sec.hw : sec.ht;
+  if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv)) return true;
+  const double ca[4] = {sec.ht, sec.ht, -sec.ht, -sec.ht};
+  const double cb[4] = {-sec.hw, sec.hw, sec.hw, -sec.hw};
+  double cu[4], cv[4];
+  bool in[4];
+  for (int k = 0; k < 4; ++k) {
+    sec.point(ca[k], cb[k], &cu[k], &cv[k]);
+    in[k] = pl.inside(i, cu[k], cv[k]);
+  }
+  if (in[0] && in[1] && in[2] && in[3]) return true;
+  const double w = 2 * sec.hw, t = 2 * sec.ht;
+  const double fl = rules.max_face_fraction * w, el = rules.max_edge_fraction * t;
+  // Sides as corner pairs (face+ 0→1, face− 3→2, edge+ 2→1, edge− 3→0). Every side must pass,
+  // so the order is free: first the cheap refusal of a side wholly outside the log (both ends
+  // and the middle outside), then the edges (short: decided with fewer steps), then the faces.
+  static constexpr int kEnds[4][2] = {{0, 1}, {3, 2}, {2, 1}, {3, 0}};
+  for (const auto& e : kEnds) {
+    const int a = e[0], b = e[1];
+    if (!in[a] && !in[b] && !pl.inside(i, 0.5 * (cu[a] + cu[b]), 0.5 * (cv[a] + cv[b])))
+      return false;
+  }
+  return side_ok(pl, i, cu[2], cv[2], in[2], cu[1], cv[1], in[1], t, el) &&
+         side_ok(pl, i, cu[3], cv[3], in[3], cu[0], cv[0], in[0], t, el) &&
+         side_ok(pl, i, cu[0], cv[0], in[0], cu[1], cv[1], in[1], w, fl) &&
+         side_ok(pl, i, cu[3], cv[3], in[3], cu[2], cv[2], in[2], w, fl);
 }
 
 // Longest run of acceptable samples, trimmed to the length step and centred in the run.
 // Returns false when nothing of at least the minimum length is left.
-bool trim(const Stem& stem, const std::vector<SliceWane>& sw, const WaneRules& rules, double* zb,
+bool trim(const Stem& stem, const std::vector<char>& ok, const WaneRules& rules, double* zb,
           double* ze) {
   int best0 = 0, best_n = 0, run0 = 0, run_n = 0;
-  for (int i = 0; i < static_cast<int>(sw.size()); ++i) {
-    if (sw[i].ok) {
+  for (int i = 0; i < static_cast<int>(ok.size()); ++i) {
+    if (ok[i]) {
       if (run_n == 0) run0 = i;
       if (++run_n > best_n) {
         best_n = run_n;
@@ -209,8 +363,15 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
   Placement pl{&log, std::cos(phi), std::sin(phi), pos.offset_x_mm, pos.offset_y_mm};
 
   // Knot axes in the pattern frame: (u, v) = Rot(φ)·q − offset.
-  std::vector<Vec3> pts;
-  std::vector<PlacedKnot> placed(log.knots().size());
+  // pu / pv: the same coordinates by axis, for the plane-crossing scan.
+  thread_local std::vector<Vec3> pts;
+  thread_local std::vector<double> pu, pv;
+  thread_local std::vector<PlacedKnot> placed;
+  thread_local std::vector<int> crossings;
+  pts.clear();
+  pu.clear();
+  pv.clear();
+  placed.assign(log.knots().size(), PlacedKnot{});
   for (size_t k = 0; k < log.knots().size(); ++k) {
     const SawLog::KnotPolyline& kp = log.knots()[k];
     PlacedKnot& pk = placed[k];
@@ -223,6 +384,8 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
     for (const Vec3& q : kp.q) {
       const Vec3 p{pl.c * q.x - pl.s * q.y - pl.ox, pl.s * q.x + pl.c * q.y - pl.oy, q.z};
       pts.push_back(p);
+      pu.push_back(p.x);
+      pv.push_back(p.y);
       const double c3[3] = {p.x, p.y, p.z};
       for (int d = 0; d < 3; ++d) {
         pk.lo[d] = std::min(pk.lo[d], c3[d]);
@@ -235,10 +398,13 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
     }
   }
 
-  std::vector<SliceWane> sw, best_sw;
-  std::vector<double> widths;
-  std::vector<int> widest;
+  // Per-thread scratch, reused from call to call (no allocation per position once warm).
+  thread_local std::vector<char> ok;
+  thread_local std::vector<SliceWane> sw;
+  thread_local std::vector<double> widths;
+  thread_local std::vector<int> widest;
   std::vector<int> crossed(log.knots().size(), -1);
+  const int n = stem.slice_count();
   for (size_t bi = 0; bi < pattern.boards.size(); ++bi) {
     const BoardSpec& spec = pattern.boards[bi];
     Section sec{spec.u_mm, spec.v_mm, 0.5 * spec.thickness_mm, 0.5 * spec.width_mm,
@@ -251,46 +417,51 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
     if (widths.empty()) widths.push_back(spec.width_mm);
     std::sort(widths.begin(), widths.end());
     double best_value = 0, best_w = 0, best_zb = 0, best_ze = 0;
+    // Only whether each stem sample keeps to the wane rules is needed to trim and edge
+    // (slice_ok); the wane itself is computed below for the samples of the trimmed board only.
+    bool have_sw = false;
     if (widths.size() == 1) {
+      // One width: the wane of every sample is needed for the trimmed board (nearly the whole
+      // log), so compute it once here and keep it.
       best_w = widths[0];
       sec.hw = 0.5 * best_w;
-      section_wane(pl, sec, pattern.wane, &best_sw);
-      if (trim(stem, best_sw, pattern.wane, &best_zb, &best_ze))
+      ok.resize(n);
+      sw.resize(n);
+      for (int i = 0; i < n; ++i) {
+        slice_wane(pl, sec, pattern.wane, i, &sw[i]);
+        ok[i] = sw[i].ok;
+      }
+      have_sw = true;
+      if (trim(stem, ok, pattern.wane, &best_zb, &best_ze))
         best_value = best_w * (best_ze - best_zb);
     } else {
       // Edging: at each stem sample the widest acceptable width, by bisection over the sorted
       // widths (acceptance shrinks as the width grows on a convex outline); then the width whose
       // trimmed board holds the most wood.
-      const int n = stem.slice_count(), m = static_cast<int>(widths.size());
+      const int m = static_cast<int>(widths.size());
       widest.assign(n, -1);
-      SliceWane tmp;
       for (int i = 0; i < n; ++i) {
         int lo = -1, hi = m;  // widths[lo] acceptable (or none), widths[hi] not
         while (hi - lo > 1) {
           const int mid = (lo + hi) / 2;
           sec.hw = 0.5 * widths[mid];
-          slice_wane(pl, sec, pattern.wane, i, &tmp);
-          (tmp.ok ? lo : hi) = mid;
+          (slice_ok(pl, sec, pattern.wane, i) ? lo : hi) = mid;
         }
         widest[i] = lo;
       }
       for (int k = m - 1; k >= 0; --k) {
         const double w = widths[k];
         if (w * stem.length_mm() <= best_value) break;
-        sw.resize(n);
-        for (int i = 0; i < n; ++i) sw[i].ok = widest[i] >= k;
+        ok.resize(n);
+        for (int i = 0; i < n; ++i) ok[i] = widest[i] >= k;
         double zb, ze;
-        if (!trim(stem, sw, pattern.wane, &zb, &ze)) continue;
+        if (!trim(stem, ok, pattern.wane, &zb, &ze)) continue;
         if (w * (ze - zb) > best_value) {
           best_value = w * (ze - zb);
           best_w = w;
           best_zb = zb;
           best_ze = ze;
         }
-      }
-      if (best_value > 0) {
-        sec.hw = 0.5 * best_w;
-        section_wane(pl, sec, pattern.wane, &best_sw);
       }
     }
     if (best_value <= 0) {
@@ -313,15 +484,20 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
     b.z_end = best_ze;
     b.box_volume_m3 = spec.thickness_mm * best_w * (best_ze - best_zb) * 1e-9;
     double missing = 0;
-    for (int i = 0; i < stem.slice_count(); ++i) {
+    for (int i = 0; i < n; ++i) {
       const double z = stem.z_at(i);
       const double ov =
           std::min(z + 0.5 * stem.dz_mm, best_ze) - std::max(z - 0.5 * stem.dz_mm, best_zb);
       if (ov <= 0) continue;
-      missing += best_sw[i].area * ov;
+      SliceWane here;
+      if (have_sw)
+        here = sw[i];
+      else
+        slice_wane(pl, sec, pattern.wane, i, &here);
+      missing += here.area * ov;
       for (int k = 0; k < 4; ++k) {
-        b.wane[k].max_mm = std::max(b.wane[k].max_mm, best_sw[i].side[k]);
-        if (best_sw[i].side[k] > 0) b.wane[k].length_mm += ov;
+        b.wane[k].max_mm = std::max(b.wane[k].max_mm, here.side[k]);
+        if (here.side[k] > 0) b.wane[k].length_mm += ov;
       }
     }
     b.volume_m3 = b.box_volume_m3 - missing * 1e-9;
@@ -357,17 +533,22 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         const int oa = 1 - sp.axis;
         if (pk.hi[sp.axis] < sp.c || pk.lo[sp.axis] > sp.c) continue;
         if (pk.hi[oa] < sp.e0 || pk.lo[oa] > sp.e1) continue;
-        auto coord = [&](int j, int axis) {
-          const Vec3& p = pts[pk.first + j];
-          return axis == 0 ? p.x : p.y;
-        };
-        double f0 = coord(0, sp.axis) - sp.c;
-        for (int j = 0; j + 1 < pk.count; ++j) {
-          const double f1 = coord(j + 1, sp.axis) - sp.c;
-          const bool crosses = (f0 < 0) != (f1 < 0);
-          const double fa = f0;
-          f0 = f1;
-          if (!crosses) continue;
+        // Segments j whose ends lie on either side of the plane ((f < 0) differs), in order:
+        // a branch-free sign mask over the polyline, then its bit changes.
+        const double* f = (sp.axis == 0 ? pu.data() : pv.data()) + pk.first;
+        crossings.clear();
+        if (pk.count >= 2 && pk.count <= 64) {
+          std::uint64_t neg = 0;
+          for (int j = 0; j < pk.count; ++j)
+            neg |= static_cast<std::uint64_t>(f[j] - sp.c < 0) << j;
+          std::uint64_t x = (neg ^ (neg >> 1)) & ((std::uint64_t{1} << (pk.count - 1)) - 1);
+          for (; x; x &= x - 1) crossings.push_back(std::countr_zero(x));
+        } else {
+          for (int j = 0; j + 1 < pk.count; ++j)
+            if ((f[j] - sp.c < 0) != (f[j + 1] - sp.c < 0)) crossings.push_back(j);
+        }
+        for (const int j : crossings) {
+          const double fa = f[j] - sp.c, f1 = f[j + 1] - sp.c;
           const double t = fa / (fa - f1);
           const Vec3& p0 = pts[pk.first + j];
           const Vec3& p1 = pts[pk.first + j + 1];

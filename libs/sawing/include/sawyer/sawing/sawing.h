@@ -75,6 +75,16 @@ class SawLog {
   // Pith distance of (x, y) minus the outline radius in its direction at stem sample i (mm;
   // > 0 outside).
   double outside_by(int slice, double x, double y) const;
+  // Squared smallest outline radius of stem sample i (a point nearer the pith is inside).
+  double min_radius2(int slice) const { return rmin2_[slice]; }
+  // line_at(model().stem.z_at(slice)), precomputed (the same numbers).
+  Vec2 line_at_slice(int slice) const { return line_at_slice_[slice]; }
+  // Conservative tests of a whole segment A→B (scanner x, y) at stem sample i, from radius
+  // bounds per angular sector (no atan2): true only when every point of the segment is inside
+  // the outline by more than `margin` mm (pith distance ≤ radius − margin), respectively
+  // outside it by more than `margin`. False means "not sure".
+  bool segment_surely_inside(int slice, Vec2 a, Vec2 b, double margin) const;
+  bool segment_surely_outside(int slice, Vec2 a, Vec2 b, double margin) const;
 
  private:
   const LogModel* model_;
@@ -84,6 +94,16 @@ class SawLog {
   double usable_diameter_mm_ = 0;
   std::vector<KnotPolyline> knots_;
   std::vector<double> rmin2_, rmax2_;  // squared radius range per stem sample
+  std::vector<Vec2> line_at_slice_;    // mean pith line per stem sample
+  // Radius bounds per stem sample and sector of the "diamond angle" (a cheap monotone stand-in
+  // for the azimuth, no atan2): inside() answers from them when a point is clearly in or out and
+  // only computes the outline radius in between; the answer is the same either way.
+  static constexpr int kSectors = 64;
+  std::vector<double> smin2_, smax2_;  // [slice × kSectors], squared, with a safety margin
+  std::vector<double> smin_, smax_;    // the same, not squared (margin 1e-9 relative)
+  // The sectors a segment (relative to the pith) sweeps: first sector and count; false when it
+  // passes too close to the pith to tell.
+  static bool sector_span(double ax, double ay, double bx, double by, int* first, int* count);
 };
 
 enum class Side { kFacePlus, kFaceMinus, kEdgePlus, kEdgeMinus };  // + / −: along the axis
