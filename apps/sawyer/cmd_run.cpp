@@ -243,6 +243,8 @@ int run(const RunCli& c) {
   else
     std::printf(" (expected %.2f; gain over horns-down %+.1f %%)\n", out.opt.best.smoothed,
                 100 * out.opt.gain_over_horns_down);
+  if (const std::string note = sawing::offset_edge_note(out.opt); !su.position && !note.empty())
+    std::printf("note: %s\n", note.c_str());
   double board_m3 = 0;
   for (const auto& b : out.chosen_sawn().boards) board_m3 += b.volume_m3;
   print_boards(out.chosen_sawn(), out.chosen_value(), su.rules, cur, stdout);

@@ -64,6 +64,8 @@ void print_sawing_summary(const LogModel& log, const SawSetup& su, const SawingO
                "gain of best over horns-down %+.1f %%, over horns-up %+.1f %% (expected "
                "values)\n",
                100 * r.gain_over_horns_down, 100 * r.gain_over_horns_up);
+  if (const std::string note = offset_edge_note(r); !note.empty())
+    std::fprintf(f, "note: %s\n", note.c_str());
   std::fprintf(f, "boards at the best position:\n");
   print_boards(out.best_sawn, out.best_value, su.rules, cur, f);
   if (out.given_sawn) {

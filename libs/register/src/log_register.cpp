@@ -160,6 +160,19 @@ class Stmt {
 }  // namespace
 
 struct LogRegister::Impl {
+  // A connection to `db` with `flags`, extended result codes and the busy timeout set.
+  static Result<std::unique_ptr<Impl>> connect(const fs::path& db, int flags) {
+    auto impl = std::make_unique<Impl>();
+    impl->path = db;
+    const int rc = sqlite3_open_v2(db.c_str(), &impl->db, flags | SQLITE_OPEN_NOMUTEX, nullptr);
+    if (rc != SQLITE_OK)
+      return impl->db ? impl->error_rc("cannot open", rc)
+                      : Error(db.string(), std::string("cannot open: ") + sqlite3_errstr(rc));
+    sqlite3_extended_result_codes(impl->db, 1);
+    sqlite3_busy_timeout(impl->db, kBusyTimeoutMs);
+    return impl;
+  }
+
   fs::path path;
   sqlite3* db = nullptr;
   ~Impl() { sqlite3_close_v2(db); }
@@ -266,17 +279,11 @@ Result<LogRegister> LogRegister::open(const fs::path& db) {
     fs::create_directories(db.parent_path(), ec);
     if (ec) return Error(db.parent_path().string(), "cannot create folder: " + ec.message());
   }
-  auto impl = std::make_unique<Impl>();
-  impl->path = db;
-  const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX;
-  int rc = sqlite3_open_v2(db.c_str(), &impl->db, flags, nullptr);
-  if (rc != SQLITE_OK) {
-    Error e = impl->db ? impl->error_rc("cannot open", rc)
-                       : Error(db.string(), std::string("cannot open: ") + sqlite3_errstr(rc));
-    return e;
-  }
-  sqlite3_extended_result_codes(impl->db, 1);
-  sqlite3_busy_timeout(impl->db, kBusyTimeoutMs);
+  Result<std::unique_ptr<Impl>> opened =
+      Impl::connect(db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
+  if (!opened) return opened.error();
+  std::unique_ptr<Impl> impl = std::move(opened.value());
+  int rc = SQLITE_OK;
   // WAL: readers never block the writer and one writer at a time commits without blocking
   // readers; the first statement that reads the file is also where "not a database" shows up.
   // Switching to WAL needs a moment's exclusive lock, so it is retried like a transaction.
@@ -299,17 +306,9 @@ Result<LogRegister> LogRegister::open_read_only(const fs::path& db) {
   std::error_code ec;
   if (!fs::exists(db, ec)) return Error(db.string(), "no such file");
   if (fs::is_directory(db, ec)) return Error(db.string(), "is a folder, expected a database file");
-  auto impl = std::make_unique<Impl>();
-  impl->path = db;
-  int rc =
-      sqlite3_open_v2(db.c_str(), &impl->db, SQLITE_OPEN_READONLY | SQLITE_OPEN_NOMUTEX, nullptr);
-  if (rc != SQLITE_OK) {
-    Error e = impl->db ? impl->error_rc("cannot open", rc)
-                       : Error(db.string(), std::string("cannot open: ") + sqlite3_errstr(rc));
-    return e;
-  }
-  sqlite3_extended_result_codes(impl->db, 1);
-  sqlite3_busy_timeout(impl->db, kBusyTimeoutMs);
+  Result<std::unique_ptr<Impl>> opened = Impl::connect(db, SQLITE_OPEN_READONLY);
+  if (!opened) return opened.error();
+  std::unique_ptr<Impl> impl = std::move(opened.value());
   Result<int> v = impl->user_version();
   if (!v) return v.error();
   if (v.value() == 0) return Error(db.string(), "not a Sawyer log register (no schema version)");

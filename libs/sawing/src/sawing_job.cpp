@@ -52,6 +52,18 @@ Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
   return out;
 }
 
+std::string offset_edge_note(const OptimiseResult& r) {
+  const auto on_edge = [](const std::vector<double>& grid, double v) {
+    return grid.size() > 1 && (v == grid.front() || v == grid.back());
+  };
+  const bool x = on_edge(r.offsets_x_mm, r.best.pos.offset_x_mm);
+  const bool y = on_edge(r.offsets_y_mm, r.best.pos.offset_y_mm);
+  if (!x && !y) return "";
+  return std::string("the best position is on the edge of the offset grid (") +
+         (x && y ? "x and y" : x ? "x" : "y") +
+         "): a wider range (--offsets" + (y && !x ? "-y" : "") + ") may be worth more";
+}
+
 namespace {
 
 Json ranked_json(const RankedPosition& r) {

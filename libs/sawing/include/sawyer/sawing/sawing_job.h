@@ -61,6 +61,10 @@ struct SawingOutcome {
 Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
                                     const std::function<void(int, int)>& progress = {});
 
+// "" when the best position lies inside the offset grid; else a note that it sits on the grid's
+// edge (x or y at ±max) and that a wider range may be worth more, for the summaries.
+std::string offset_edge_note(const OptimiseResult& result);
+
 // The `sawyer-sawing/1` file: names, options, best / horns-down / horns-up with their values,
 // gains, ranked positions, the boards at the best position (with details), the given position
 // and its boards, "chosen" ("best" | "given"), and the value surface.
