@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <future>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -16,6 +17,7 @@
 #include "progress.h"
 #include "scan_job.h"
 #include "sawyer/core/file_util.h"
+#include "sawyer/model/log_json.h"
 #include "sawyer/model/log_summary.h"
 #include "sawyer/register/ct_checksum.h"
 #include "sawyer/register/log_register.h"
@@ -175,13 +177,11 @@ int run(const RunCli& c) {
   double report_seconds = 0;
   report::ReportFiles report_files;
   Status st = write_dir_atomic(out_dir, [&](const fs::path& tmp) -> Status {
-    t = Clock::now();
     fs::create_directories(tmp / "scan");
-    if (Status w = write_scan_files(scan, c.scan, tmp / "scan"); !w) return w;
+    if (Status w = write_log_json(log, tmp / "scan" / "log.json"); !w) return w;
     const Json saw_file = sawing_file_json(log, su, out);
     if (Status w = write_text_file_atomic(tmp / "sawing.json", saw_file.dump(1) + "\n"); !w)
       return w;
-    stages.push_back({"write", since(t)});
     if (!c.no_register) {
       t = Clock::now();
       Result<std::string> sum = reg::ct_checksum(c.scan.input);
@@ -193,6 +193,15 @@ int run(const RunCli& c) {
             tmp / "run.json", run_json(c, scan, source, checksum, date, stages).dump(1) + "\n");
         !w)
       return w;
+    // The maps and QA images are written beside the report (mostly single-threaded work on
+    // both sides); the future's destructor waits for them on every way out of this function.
+    double write_seconds = 0;
+    std::future<Status> extras = std::async(std::launch::async, [&] {
+      const auto t0 = Clock::now();
+      Status w = write_scan_extras(scan, c.scan, tmp / "scan");
+      write_seconds = since(t0);
+      return w;
+    });
     if (!c.no_report) {
       t = Clock::now();
       Result<report::RunFolder> folder = report::load_run_folder(tmp);
@@ -207,14 +216,15 @@ int run(const RunCli& c) {
       std::snprintf(note, sizeof note, "%d pages, %zu images", report_files.pages,
                     report_files.images.size());
       bar.done("report", report_seconds, note);
-      // run.json again, now with the report's time (the report itself shows scan and saw).
-      stages.push_back({"report", report_seconds});
-      if (Status w = write_text_file_atomic(
-              tmp / "run.json",
-              run_json(c, scan, source, checksum, date, stages).dump(1) + "\n");
-          !w)
-        return w;
     }
+    if (Status w = extras.get(); !w) return w;
+    // run.json again with the times of the work done since (the report shows scan and saw).
+    stages.push_back({"write", write_seconds});
+    if (!c.no_report) stages.push_back({"report", report_seconds});
+    if (Status w = write_text_file_atomic(
+            tmp / "run.json", run_json(c, scan, source, checksum, date, stages).dump(1) + "\n");
+        !w)
+      return w;
     // Last, so that a register that refuses the row leaves no output behind either.
     if (reg) {
       if (Status w = reg->upsert(register_record(log, summary, su, out, source, checksum,

@@ -206,11 +206,15 @@ Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress) {
 }
 
 Status write_scan_files(const ScanJob& job, const ScanJobOptions& c, const fs::path& dir) {
+  if (Status w = write_log_json(job.log, dir / "log.json"); !w) return w;
+  return write_scan_extras(job, c, dir);
+}
+
+Status write_scan_extras(const ScanJob& job, const ScanJobOptions& c, const fs::path& dir) {
   const LogModel& log = job.log;
   ct::SliceSource& src = *job.source;
   const ct::StemScan& s = job.stem;
   const int n = src.geometry().slice_count();
-  if (Status w = write_log_json(log, dir / "log.json"); !w) return w;
   if (Status w = export_published_maps(log, dir / "maps"); !w) return w;
   if (Status w = export_float_maps(log, dir / "maps_float"); !w) return w;
   fs::create_directories(dir / "qa");

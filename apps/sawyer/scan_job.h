@@ -37,9 +37,14 @@ using ScanProgress = std::function<void(const char* stage, int done, int total)>
 // Opens and analyses the scan. Errors name the input and the problem.
 Result<ScanJob> scan_ct(const ScanJobOptions& options, const ScanProgress& progress);
 
-// Writes the scan folder's files into `dir` (an existing, empty folder).
+// Writes the scan folder's files into `dir` (an existing, empty folder): log.json, then
+// write_scan_extras().
 Status write_scan_files(const ScanJob& job, const ScanJobOptions& options,
                         const std::filesystem::path& dir);
+// Everything but log.json: maps/, maps_float/, qa/. Reads a few slices again through
+// job.source, so it may run beside other work but not beside another user of job.source.
+Status write_scan_extras(const ScanJob& job, const ScanJobOptions& options,
+                         const std::filesystem::path& dir);
 
 // The one-line summary `sawyer scan` prints.
 std::string scan_summary(const ScanJob& job, const std::string& input);
