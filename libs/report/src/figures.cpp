@@ -159,31 +159,36 @@ Result<render::Image> render_rect(render::WoodRenderer& r, const render::PlaneRe
 
 // The image cropped to the pixels that are not the white background, plus a margin: a
 // perspective view leaves wide empty bands above and below a long log.
-SurfacePtr crop_to_content(const render::Image& img, int margin) {
-  int x0 = img.width, x1 = -1, y0 = img.height, y1 = -1;
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x) {
-      const std::uint8_t* p = &img.u8[(static_cast<size_t>(y) * img.width + x) * 4];
-      if (p[0] < 250 || p[1] < 250 || p[2] < 250) {
+SurfacePtr crop_to_content(SurfacePtr surface, int margin) {
+  cairo_surface_t* src = surface.get();
+  cairo_surface_flush(src);
+  const int w = cairo_image_surface_get_width(src), h = cairo_image_surface_get_height(src);
+  const int stride = cairo_image_surface_get_stride(src);
+  const unsigned char* data = cairo_image_surface_get_data(src);
+  int x0 = w, x1 = -1, y0 = h, y1 = -1;
+  for (int y = 0; y < h; ++y) {
+    const auto* row = reinterpret_cast<const std::uint32_t*>(data + static_cast<size_t>(y) * stride);
+    for (int x = 0; x < w; ++x) {
+      const std::uint32_t p = row[x];  // xRGB
+      if (((p >> 16) & 0xff) < 250 || ((p >> 8) & 0xff) < 250 || (p & 0xff) < 250) {
         x0 = std::min(x0, x);
         x1 = std::max(x1, x);
         y0 = std::min(y0, y);
         y1 = std::max(y1, y);
       }
     }
-  if (x1 < 0) return to_surface(img);
+  }
+  if (x1 < 0) return surface;
   x0 = std::max(0, x0 - margin);
   y0 = std::max(0, y0 - margin);
-  x1 = std::min(img.width - 1, x1 + margin);
-  y1 = std::min(img.height - 1, y1 + margin);
-  render::Image out;
-  out.width = x1 - x0 + 1;
-  out.height = y1 - y0 + 1;
-  out.u8.resize(static_cast<size_t>(out.width) * out.height * 4);
-  for (int y = 0; y < out.height; ++y)
-    std::copy_n(&img.u8[(static_cast<size_t>(y + y0) * img.width + x0) * 4], out.width * 4,
-                &out.u8[static_cast<size_t>(y) * out.width * 4]);
-  return to_surface(out);
+  x1 = std::min(w - 1, x1 + margin);
+  y1 = std::min(h - 1, y1 + margin);
+  SurfacePtr out(cairo_image_surface_create(CAIRO_FORMAT_RGB24, x1 - x0 + 1, y1 - y0 + 1));
+  cairo_t* cr = cairo_create(out.get());
+  cairo_set_source_surface(cr, src, -x0, -y0);
+  cairo_paint(cr);
+  cairo_destroy(cr);
+  return out;
 }
 
 }  // namespace
@@ -345,6 +350,57 @@ render::Board render_board(const SawLog& log, const Board& b, const LogPosition&
 
 }  // namespace
 
+namespace {
+
+// Every knot's axis from the pith to its end, projected with the view's camera and drawn as a
+// line as wide as the knot where the outer surface is cut away (z > surface_z1): green where
+// sound, red where dead. The lines are drawn over the boards (no depth test): an x-ray of where
+// the knots run, the boards' own faces show where they are cut.
+void draw_knot_axes(cairo_surface_t* s, const render::Mat4& vp, const LogModel& log,
+                    double surface_z1) {
+  const int w = cairo_image_surface_get_width(s), h = cairo_image_surface_get_height(s);
+  const auto to_px = [&](const Vec3& p) {
+    const Vec3 n = vp.transform_point(p);
+    return Vec2{(0.5 * n.x + 0.5) * w, (0.5 - 0.5 * n.y) * h};
+  };
+  ContextPtr cr = new_context(s);
+  cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
+  constexpr double kStepMm = 4.0;
+  for (const Knot& k : log.knots) {
+    Vec2 prev{};
+    bool have_prev = false;
+    for (double r = 0; r <= k.r_end + 1e-9; r += kStepMm) {
+      const double z = k.height_at(r);
+      if (z <= surface_z1 || z < log.stem.z_begin() || z > log.stem.z_end()) {
+        have_prev = false;
+        continue;
+      }
+      const Vec2 c = log.stem.pith_at(z);
+      const double az = k.azimuth_at(r);
+      const Vec3 p{c.x + r * std::cos(az), c.y + r * std::sin(az), z};
+      const Vec2 q = to_px(p);
+      if (have_prev) {
+        // Pixels per mm here: a knot diameter's worth of the image across the line.
+        const Vec2 q2 = to_px(p + Vec3{0, 0, k.diameter_at(r)});
+        const double px = std::hypot(q2.x - q.x, q2.y - q.y);
+        if (k.dead_at(r))
+          cairo_set_source_rgba(cr.get(), 0.80, 0.12, 0.10, 0.85);
+        else
+          cairo_set_source_rgba(cr.get(), 0.10, 0.55, 0.15, 0.85);
+        cairo_set_line_width(cr.get(), std::max(1.0, px));
+        cairo_move_to(cr.get(), prev.x, prev.y);
+        cairo_line_to(cr.get(), q.x, q.y);
+        cairo_stroke(cr.get());
+      }
+      prev = q;
+      have_prev = true;
+    }
+  }
+  cairo_surface_flush(s);
+}
+
+}  // namespace
+
 Result<SurfacePtr> log_view(render::WoodRenderer& r, const SawLog& log, const RunFolder& run,
                             const BoardSet& boards, int w, int h) {
   render::Scene scene;
@@ -367,7 +423,10 @@ Result<SurfacePtr> log_view(render::WoodRenderer& r, const SawLog& log, const Ru
   layout.background[0] = layout.background[1] = layout.background[2] = 1.0f;
   Result<render::Image> img = render::render_view(r, scene, cam, {w, h}, {}, layout);
   if (!img) return img.error();
-  return crop_to_content(img.value(), 16);
+  SurfacePtr surface = to_surface(img.value());
+  draw_knot_axes(surface.get(), cam.view_projection(static_cast<double>(w) / h), run.log,
+                 scene.surface_z1);
+  return crop_to_content(std::move(surface), 16);
 }
 
 Result<SurfacePtr> board_faces(render::WoodRenderer& r, const SawLog& log, const LogPosition& pos,

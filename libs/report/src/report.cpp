@@ -125,7 +125,8 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
                        "The log and its boards",
                        "The log model rendered with its knotted wood: the outer surface over the "
                        "butt half, the boards at the chosen position running through the whole "
-                       "length.",
+                       "length, and beyond the surface every knot drawn along its axis as wide "
+                       "as it is (green sound, red dead).",
                        std::move(lv).value(),
                        {}});
 
