@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "sawyer/sawing/sawing.h"
@@ -31,6 +32,8 @@ BowInfo detect_bow(const Stem& stem) {
 }
 
 SawLog::SawLog(const LogModel& model, int knot_samples) : model_(&model) {
+  static std::atomic<std::uint64_t> next_serial{1};
+  serial_ = next_serial.fetch_add(1);
   const Stem& stem = model.stem;
   const int n = stem.slice_count();
   // Least-squares line through the pith samples: pith ≈ line_p_ + line_s_·(z − line_z_).
@@ -99,6 +102,28 @@ SawLog::SawLog(const LogModel& model, int knot_samples) : model_(&model) {
     }
   }
 
+  // Bounds over runs of 2^l sectors (cyclic) for segment_surely_inside / _outside: the bound
+  // over any run of sectors is the min (max) over two overlapping power-of-two runs, the same
+  // number as a loop over the run gives, in two look-ups.
+  run_min_.assign(static_cast<size_t>(n) * kLevels * kSectors, 0.0);
+  run_max_.assign(static_cast<size_t>(n) * kLevels * kSectors, 0.0);
+  for (int i = 0; i < n; ++i) {
+    double* mn = &run_min_[static_cast<size_t>(i) * kLevels * kSectors];
+    double* mx = &run_max_[static_cast<size_t>(i) * kLevels * kSectors];
+    for (int j = 0; j < kSectors; ++j) {
+      mn[j] = smin_[static_cast<size_t>(i) * kSectors + j];
+      mx[j] = smax_[static_cast<size_t>(i) * kSectors + j];
+    }
+    for (int l = 1; l < kLevels; ++l) {
+      const int half = 1 << (l - 1);
+      for (int j = 0; j < kSectors; ++j) {
+        const int k = (j + half) & (kSectors - 1);
+        mn[l * kSectors + j] = std::min(mn[(l - 1) * kSectors + j], mn[(l - 1) * kSectors + k]);
+        mx[l * kSectors + j] = std::max(mx[(l - 1) * kSectors + j], mx[(l - 1) * kSectors + k]);
+      }
+    }
+  }
+
   // Usable diameter: circle about the mean pith line inscribed in the top end's outline.
   if (n > 0) {
     const int top = stem.mean_radius(n - 1) <= stem.mean_radius(0) ? n - 1 : 0;
@@ -135,113 +160,6 @@ SawLog::SawLog(const LogModel& model, int knot_samples) : model_(&model) {
     pl.zmax = zmax + pl.half_dmax;
     knots_.push_back(std::move(pl));
   }
-}
-
-namespace {
-
-// Diamond angle of (x, y) ≠ 0 in [0, 4): same quadrant and order as the azimuth.
-inline double diamond(double x, double y) {
-  const double ax = std::abs(x), ay = std::abs(y);
-  if (y >= 0) return x >= 0 ? ay / (ax + ay) : 1 + ax / (ax + ay);
-  return x < 0 ? 2 + ay / (ax + ay) : 3 + ax / (ax + ay);
-}
-
-}  // namespace
-
-bool SawLog::sector_span(double ax, double ay, double bx, double by, int* first, int* count) {
-  const double cr = ax * by - ay * bx;  // > 0: A → B counter-clockwise
-  const double la2 = ax * ax + ay * ay, lb2 = bx * bx + by * by;
-  const double dot = ax * bx + ay * by;
-  // The sweep of a segment not through the pith is below π; refuse near-π sweeps (sin < 1e-3
-  // with the ends on opposite sides) and ends at the pith.
-  if (!(la2 > 1e-12 && lb2 > 1e-12)) return false;
-  if (dot < 0 && cr * cr < 1e-6 * la2 * lb2) return false;
-  const int q = kSectors / 4;
-  int ja = std::min(static_cast<int>(diamond(ax, ay) * q), kSectors - 1);
-  int jb = std::min(static_cast<int>(diamond(bx, by) * q), kSectors - 1);
-  if (cr < 0) std::swap(ja, jb);
-  *first = ja;
-  *count = (jb - ja + kSectors) % kSectors + 1;
-  return true;
-}
-
-bool SawLog::segment_surely_inside(int slice, Vec2 a, Vec2 b, double margin) const {
-  const Vec2 c = model_->stem.pith[slice];
-  const double ax = a.x - c.x, ay = a.y - c.y, bx = b.x - c.x, by = b.y - c.y;
-  // The farthest point of a segment from the pith is an end.
-  const double r = std::sqrt(std::max(ax * ax + ay * ay, bx * bx + by * by)) + margin;
-  if (r * r <= rmin2_[slice] * (1 - 1e-9)) return true;
-  if (r * r > rmax2_[slice]) return false;
-  int j0, cnt;
-  if (!sector_span(ax, ay, bx, by, &j0, &cnt)) return false;
-  const double* lo = &smin_[static_cast<size_t>(slice) * kSectors];
-  for (int k = 0, j = j0; k < cnt; ++k, j = j + 1 == kSectors ? 0 : j + 1)
-    if (r > lo[j]) return false;
-  return true;
-}
-
-bool SawLog::segment_surely_outside(int slice, Vec2 a, Vec2 b, double margin) const {
-  const Vec2 c = model_->stem.pith[slice];
-  const double ax = a.x - c.x, ay = a.y - c.y, bx = b.x - c.x, by = b.y - c.y;
-  // Nearest point of the segment to the pith.
-  const double ex = bx - ax, ey = by - ay, ee = ex * ex + ey * ey;
-  const double t = ee > 0 ? std::clamp(-(ax * ex + ay * ey) / ee, 0.0, 1.0) : 0.0;
-  const double nx = ax + t * ex, ny = ay + t * ey;
-  const double r = std::sqrt(nx * nx + ny * ny) - margin;
-  if (r * r > rmax2_[slice] * (1 + 1e-9) && r > 0) return true;
-  if (!(r > 0) || r * r <= rmin2_[slice]) return false;
-  int j0, cnt;
-  if (!sector_span(ax, ay, bx, by, &j0, &cnt)) return false;
-  const double* hi = &smax_[static_cast<size_t>(slice) * kSectors];
-  for (int k = 0, j = j0; k < cnt; ++k, j = j + 1 == kSectors ? 0 : j + 1)
-    if (r <= hi[j]) return false;
-  return true;
-}
-
-double SawLog::outside_by(int slice, double x, double y) const {
-  const Stem& stem = model_->stem;
-  const Vec2 c = stem.pith[slice];
-  const double dx = x - c.x, dy = y - c.y;
-  const std::vector<double>& rad = stem.radius[slice];
-  const int na = static_cast<int>(rad.size());
-  const double r = std::sqrt(dx * dx + dy * dy);
-  if (na == 0) return r;
-  double w = std::atan2(dy, dx);
-  if (w < 0) w += kTwoPi;
-  const double f = w * na / kTwoPi;
-  int i0 = static_cast<int>(f);
-  const double t = f - i0;
-  if (i0 >= na) i0 -= na;  // w rounded up to 2π
-  const int i1 = i0 + 1 == na ? 0 : i0 + 1;
-  return r - ((1 - t) * rad[i0] + t * rad[i1]);
-}
-
-bool SawLog::inside(int slice, double x, double y) const {
-  const Stem& stem = model_->stem;
-  const Vec2 c = stem.pith[slice];
-  const double dx = x - c.x, dy = y - c.y;
-  const double r2 = dx * dx + dy * dy;
-  // Fast answers from the slice's radius range before the angle lookup.
-  if (r2 <= rmin2_[slice]) return true;
-  if (r2 > rmax2_[slice]) return false;
-  const std::vector<double>& rad = stem.radius[slice];
-  const int na = static_cast<int>(rad.size());
-  if (na == 0) return false;
-  if (r2 > 0) {
-    const int j = std::min(static_cast<int>(diamond(dx, dy) * (kSectors / 4)), kSectors - 1);
-    const size_t at = static_cast<size_t>(slice) * kSectors + j;
-    if (r2 <= smin2_[at]) return true;
-    if (r2 > smax2_[at]) return false;
-  }
-  double w = std::atan2(dy, dx);
-  if (w < 0) w += kTwoPi;
-  const double f = w * na / kTwoPi;
-  int i0 = static_cast<int>(f);
-  const double t = f - i0;
-  if (i0 >= na) i0 -= na;
-  const int i1 = i0 + 1 == na ? 0 : i0 + 1;
-  const double R = (1 - t) * rad[i0] + t * rad[i1];
-  return r2 <= R * R;
 }
 
 }  // namespace sawyer::sawing

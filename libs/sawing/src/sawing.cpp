@@ -61,13 +61,28 @@ struct Placement {
   // about the pith (by a relative 1e-9): then inside() holds at its corners (the same answer,
   // without the look-up).
   bool rect_surely_inside(int i, double u0, double u1, double v0, double v1) const {
-    const Vec2 l = log->line_at_slice(i);
-    const Vec2 p = log->model().stem.pith[i];
-    const double qx = p.x - l.x, qy = p.y - l.y;
-    const double pu = c * qx - s * qy - ox, pv = s * qx + c * qy - oy;
+    const double pu = pith_uv[i].x, pv = pith_uv[i].y;
     const double du = std::max(std::abs(u0 - pu), std::abs(u1 - pu));
     const double dv = std::max(std::abs(v0 - pv), std::abs(v1 - pv));
-    return du * du + dv * dv <= log->min_radius2(i) * (1 - 1e-9);
+    return du * du + dv * dv <= inner_r2[i];
+  }
+  // Per stem sample, filled by prepare(): the pith in the pattern frame and the squared
+  // smallest outline radius less a relative 1e-9 (rect_surely_inside's numbers).
+  const Vec2* pith_uv = nullptr;
+  const double* inner_r2 = nullptr;
+  void prepare(std::vector<Vec2>& uv, std::vector<double>& r2) {
+    const int n = log->model().stem.slice_count();
+    uv.resize(n);
+    r2.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const Vec2 l = log->line_at_slice(i);
+      const Vec2 p = log->model().stem.pith[i];
+      const double qx = p.x - l.x, qy = p.y - l.y;
+      uv[i] = {c * qx - s * qy - ox, s * qx + c * qy - oy};
+      r2[i] = log->min_radius2(i) * (1 - 1e-9);
+    }
+    pith_uv = uv.data();
+    inner_r2 = r2.data();
   }
   double outside_by(int i, double u, double v) const {
     const double pu = u + ox, pv = v + oy;
@@ -322,11 +337,12 @@ bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, i
 
 // Longest run of acceptable samples, trimmed to the length step and centred in the run.
 // Returns false when nothing of at least the minimum length is left.
-bool trim(const Stem& stem, const std::vector<char>& ok, const WaneRules& rules, double* zb,
-          double* ze) {
+// `ok(i)` says whether sample i (of n) is acceptable.
+template <class Ok>
+bool trim(const Stem& stem, int n, Ok&& ok, const WaneRules& rules, double* zb, double* ze) {
   int best0 = 0, best_n = 0, run0 = 0, run_n = 0;
-  for (int i = 0; i < static_cast<int>(ok.size()); ++i) {
-    if (ok[i]) {
+  for (int i = 0; i < n; ++i) {
+    if (ok(i)) {
       if (run_n == 0) run0 = i;
       if (++run_n > best_n) {
         best_n = run_n;
@@ -352,6 +368,7 @@ bool trim(const Stem& stem, const std::vector<char>& ok, const WaneRules& rules,
 struct PlacedKnot {
   int first = 0, count = 0;  // into pts / r
   double lo[3], hi[3];
+  bool monotone[2] = {false, false};  // u (v) never decreases or never increases along the axis
 };
 
 }  // namespace
@@ -361,36 +378,78 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
   const Stem& stem = log.model().stem;
   const double phi = (1.5 * kPi - log.bow().horns_azimuth) + pos.rotation_deg * kPi / 180.0;
   Placement pl{&log, std::cos(phi), std::sin(phi), pos.offset_x_mm, pos.offset_y_mm};
+  thread_local std::vector<Vec2> pith_uv;
+  thread_local std::vector<double> inner_r2;
+  pl.prepare(pith_uv, inner_r2);
 
   // Knot axes in the pattern frame: (u, v) = Rot(φ)·q − offset.
   // pu / pv: the same coordinates by axis, for the plane-crossing scan.
+  // Rot(φ)·q and its bounding box per knot depend on the rotation only: kept per thread for the
+  // next position (the optimiser's next position is usually the same rotation at another
+  // offset). Subtracting the offset afterwards gives the same numbers (the same operations in
+  // the same order; the box's min and max commute with the subtraction, which is monotone).
   thread_local std::vector<Vec3> pts;
   thread_local std::vector<double> pu, pv;
   thread_local std::vector<PlacedKnot> placed;
   thread_local std::vector<int> crossings;
-  pts.clear();
-  pu.clear();
-  pv.clear();
-  placed.assign(log.knots().size(), PlacedKnot{});
+  thread_local std::uint64_t turned_log = 0;  // SawLog::serial()
+  thread_local double turned_c = 0, turned_s = 0;
+  thread_local std::vector<Vec3> turned;            // Rot(φ)·q, z kept, all knots in order
+  thread_local std::vector<PlacedKnot> turned_box;  // their boxes (before offset and widening)
+  if (turned_log != log.serial() || turned_c != pl.c || turned_s != pl.s ||
+      turned_box.size() != log.knots().size()) {
+    turned_log = log.serial();
+    turned_c = pl.c;
+    turned_s = pl.s;
+    turned.clear();
+    turned_box.assign(log.knots().size(), PlacedKnot{});
+    for (size_t k = 0; k < log.knots().size(); ++k) {
+      const SawLog::KnotPolyline& kp = log.knots()[k];
+      PlacedKnot& tb = turned_box[k];
+      tb.first = static_cast<int>(turned.size());
+      tb.count = static_cast<int>(kp.q.size());
+      for (int d = 0; d < 3; ++d) {
+        tb.lo[d] = 1e300;
+        tb.hi[d] = -1e300;
+      }
+      for (const Vec3& q : kp.q) {
+        const Vec3 t{pl.c * q.x - pl.s * q.y, pl.s * q.x + pl.c * q.y, q.z};
+        turned.push_back(t);
+        const double c3[3] = {t.x, t.y, t.z};
+        for (int d = 0; d < 3; ++d) {
+          tb.lo[d] = std::min(tb.lo[d], c3[d]);
+          tb.hi[d] = std::max(tb.hi[d], c3[d]);
+        }
+      }
+      for (int d = 0; d < 2; ++d) {
+        bool up = true, down = true;
+        for (int j = tb.first; j + 1 < tb.first + tb.count; ++j) {
+          const double a = d == 0 ? turned[j].x : turned[j].y;
+          const double b = d == 0 ? turned[j + 1].x : turned[j + 1].y;
+          up = up && a <= b;
+          down = down && a >= b;
+        }
+        tb.monotone[d] = up || down;
+      }
+    }
+  }
+  pts.resize(turned.size());
+  pu.resize(turned.size());
+  pv.resize(turned.size());
+  for (size_t j = 0; j < turned.size(); ++j) {
+    const Vec3 p{turned[j].x - pl.ox, turned[j].y - pl.oy, turned[j].z};
+    pts[j] = p;
+    pu[j] = p.x;
+    pv[j] = p.y;
+  }
+  placed = turned_box;
   for (size_t k = 0; k < log.knots().size(); ++k) {
     const SawLog::KnotPolyline& kp = log.knots()[k];
     PlacedKnot& pk = placed[k];
-    pk.first = static_cast<int>(pts.size());
-    pk.count = static_cast<int>(kp.q.size());
-    for (int d = 0; d < 3; ++d) {
-      pk.lo[d] = 1e300;
-      pk.hi[d] = -1e300;
-    }
-    for (const Vec3& q : kp.q) {
-      const Vec3 p{pl.c * q.x - pl.s * q.y - pl.ox, pl.s * q.x + pl.c * q.y - pl.oy, q.z};
-      pts.push_back(p);
-      pu.push_back(p.x);
-      pv.push_back(p.y);
-      const double c3[3] = {p.x, p.y, p.z};
-      for (int d = 0; d < 3; ++d) {
-        pk.lo[d] = std::min(pk.lo[d], c3[d]);
-        pk.hi[d] = std::max(pk.hi[d], c3[d]);
-      }
+    const double off[3] = {pl.ox, pl.oy, 0.0};
+    for (int d = 0; d < 2; ++d) {
+      pk.lo[d] -= off[d];
+      pk.hi[d] -= off[d];
     }
     for (int d = 0; d < 3; ++d) {
       pk.lo[d] -= kp.half_dmax;
@@ -432,7 +491,8 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         ok[i] = sw[i].ok;
       }
       have_sw = true;
-      if (trim(stem, ok, pattern.wane, &best_zb, &best_ze))
+      const auto acceptable = [&](int i) { return ok[i] != 0; };
+      if (trim(stem, n, acceptable, pattern.wane, &best_zb, &best_ze))
         best_value = best_w * (best_ze - best_zb);
     } else {
       // Edging: at each stem sample the widest acceptable width, by bisection over the sorted
@@ -452,10 +512,9 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
       for (int k = m - 1; k >= 0; --k) {
         const double w = widths[k];
         if (w * stem.length_mm() <= best_value) break;
-        ok.resize(n);
-        for (int i = 0; i < n; ++i) ok[i] = widest[i] >= k;
         double zb, ze;
-        if (!trim(stem, ok, pattern.wane, &zb, &ze)) continue;
+        const auto wide_enough = [&](int i) { return widest[i] >= k; };
+        if (!trim(stem, n, wide_enough, pattern.wane, &zb, &ze)) continue;
         if (w * (ze - zb) > best_value) {
           best_value = w * (ze - zb);
           best_w = w;
@@ -537,7 +596,19 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         // a branch-free sign mask over the polyline, then its bit changes.
         const double* f = (sp.axis == 0 ? pu.data() : pv.data()) + pk.first;
         crossings.clear();
-        if (pk.count >= 2 && pk.count <= 64) {
+        if (pk.monotone[sp.axis] && pk.count >= 2) {
+          // f − c is monotone too (subtracting a constant is monotone): at most one sign
+          // change, found by bisection.
+          const bool neg0 = f[0] - sp.c < 0;
+          if ((f[pk.count - 1] - sp.c < 0) != neg0) {
+            int lo = 0, hi = pk.count - 1;  // sign at lo is neg0, at hi not
+            while (hi - lo > 1) {
+              const int mid = (lo + hi) / 2;
+              ((f[mid] - sp.c < 0) == neg0 ? lo : hi) = mid;
+            }
+            crossings.push_back(lo);
+          }
+        } else if (pk.count >= 2 && pk.count <= 64) {
           std::uint64_t neg = 0;
           for (int j = 0; j < pk.count; ++j)
             neg |= static_cast<std::uint64_t>(f[j] - sp.c < 0) << j;

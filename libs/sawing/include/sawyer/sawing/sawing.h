@@ -20,7 +20,11 @@
 // safe. The SawLog keeps a pointer to the model, which must outlive it.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -70,6 +74,9 @@ class SawLog {
     double half_dmax = 0;
   };
   const std::vector<KnotPolyline>& knots() const { return knots_; }
+  // Distinct for every SawLog constructed in this process (copies keep it: they hold the same
+  // tables); saw() keys its per-thread cache on it.
+  std::uint64_t serial() const { return serial_; }
   // True when scanner point (x, y) lies inside the outline of stem sample i (linear in angle).
   bool inside(int slice, double x, double y) const;
   // Pith distance of (x, y) minus the outline radius in its direction at stem sample i (mm;
@@ -88,6 +95,7 @@ class SawLog {
 
  private:
   const LogModel* model_;
+  std::uint64_t serial_ = 0;
   Vec2 line_p_, line_s_;
   double line_z_ = 0;
   BowInfo bow_;
@@ -98,9 +106,12 @@ class SawLog {
   // Radius bounds per stem sample and sector of the "diamond angle" (a cheap monotone stand-in
   // for the azimuth, no atan2): inside() answers from them when a point is clearly in or out and
   // only computes the outline radius in between; the answer is the same either way.
-  static constexpr int kSectors = 64;
-  std::vector<double> smin2_, smax2_;  // [slice × kSectors], squared, with a safety margin
-  std::vector<double> smin_, smax_;    // the same, not squared (margin 1e-9 relative)
+  static constexpr int kSectors = 256;  // a power of two
+  static constexpr int kLevels = 9;     // 2^(kLevels − 1) = kSectors
+  std::vector<double> smin2_, smax2_;   // [slice × kSectors], squared, with a safety margin
+  std::vector<double> smin_, smax_;     // the same, not squared (margin 1e-9 relative)
+  // smin_ / smax_ over the 2^l sectors from j on (cyclic): [(slice × kLevels + l) × kSectors + j]
+  std::vector<double> run_min_, run_max_;
   // The sectors a segment (relative to the pith) sweeps: first sector and count; false when it
   // passes too close to the pith to tell.
   static bool sector_span(double ax, double ay, double bx, double by, int* first, int* count);
@@ -166,5 +177,112 @@ struct SawResult {
 // centred in the run), edged boards take the standard width giving the most volume, and boards
 // shorter than min_length_mm are dropped. Does not check the fit (check_pattern_fits).
 SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos);
+
+// ---- inline definitions (saw()'s innermost tests; defined here so that they inline into it) ----
+
+namespace detail {
+// Diamond angle of (x, y) ≠ 0 in [0, 4): same quadrant and order as the azimuth.
+inline double diamond(double x, double y) {
+  const double ax = std::abs(x), ay = std::abs(y);
+  if (y >= 0) return x >= 0 ? ay / (ax + ay) : 1 + ax / (ax + ay);
+  return x < 0 ? 2 + ay / (ax + ay) : 3 + ax / (ax + ay);
+}
+}  // namespace detail
+
+inline double SawLog::outside_by(int slice, double x, double y) const {
+  const Stem& stem = model_->stem;
+  const Vec2 c = stem.pith[slice];
+  const double dx = x - c.x, dy = y - c.y;
+  const std::vector<double>& rad = stem.radius[slice];
+  const int na = static_cast<int>(rad.size());
+  const double r = std::sqrt(dx * dx + dy * dy);
+  if (na == 0) return r;
+  double w = std::atan2(dy, dx);
+  if (w < 0) w += kTwoPi;
+  const double f = w * na / kTwoPi;
+  int i0 = static_cast<int>(f);
+  const double t = f - i0;
+  if (i0 >= na) i0 -= na;  // w rounded up to 2π
+  const int i1 = i0 + 1 == na ? 0 : i0 + 1;
+  return r - ((1 - t) * rad[i0] + t * rad[i1]);
+}
+
+inline bool SawLog::inside(int slice, double x, double y) const {
+  const Stem& stem = model_->stem;
+  const Vec2 c = stem.pith[slice];
+  const double dx = x - c.x, dy = y - c.y;
+  const double r2 = dx * dx + dy * dy;
+  // Fast answers from the slice's radius range before the angle lookup.
+  if (r2 <= rmin2_[slice]) return true;
+  if (r2 > rmax2_[slice]) return false;
+  const std::vector<double>& rad = stem.radius[slice];
+  const int na = static_cast<int>(rad.size());
+  if (na == 0) return false;
+  if (r2 > 0) {
+    const int j =
+        std::min(static_cast<int>(detail::diamond(dx, dy) * (kSectors / 4)), kSectors - 1);
+    const size_t at = static_cast<size_t>(slice) * kSectors + j;
+    if (r2 <= smin2_[at]) return true;
+    if (r2 > smax2_[at]) return false;
+  }
+  double w = std::atan2(dy, dx);
+  if (w < 0) w += kTwoPi;
+  const double f = w * na / kTwoPi;
+  int i0 = static_cast<int>(f);
+  const double t = f - i0;
+  if (i0 >= na) i0 -= na;
+  const int i1 = i0 + 1 == na ? 0 : i0 + 1;
+  const double R = (1 - t) * rad[i0] + t * rad[i1];
+  return r2 <= R * R;
+}
+
+inline bool SawLog::sector_span(double ax, double ay, double bx, double by, int* first,
+                                int* count) {
+  const double cr = ax * by - ay * bx;  // > 0: A → B counter-clockwise
+  const double la2 = ax * ax + ay * ay, lb2 = bx * bx + by * by;
+  const double dot = ax * bx + ay * by;
+  // The sweep of a segment not through the pith is below π; refuse near-π sweeps (sin < 1e-3
+  // with the ends on opposite sides) and ends at the pith.
+  if (!(la2 > 1e-12 && lb2 > 1e-12)) return false;
+  if (dot < 0 && cr * cr < 1e-6 * la2 * lb2) return false;
+  const int q = kSectors / 4;
+  int ja = std::min(static_cast<int>(detail::diamond(ax, ay) * q), kSectors - 1);
+  int jb = std::min(static_cast<int>(detail::diamond(bx, by) * q), kSectors - 1);
+  if (cr < 0) std::swap(ja, jb);
+  *first = ja;
+  *count = (jb - ja + kSectors) % kSectors + 1;
+  return true;
+}
+
+inline bool SawLog::segment_surely_inside(int slice, Vec2 a, Vec2 b, double margin) const {
+  const Vec2 c = model_->stem.pith[slice];
+  const double ax = a.x - c.x, ay = a.y - c.y, bx = b.x - c.x, by = b.y - c.y;
+  // The farthest point of a segment from the pith is an end.
+  const double r = std::sqrt(std::max(ax * ax + ay * ay, bx * bx + by * by)) + margin;
+  if (r * r <= rmin2_[slice] * (1 - 1e-9)) return true;
+  if (r * r > rmax2_[slice]) return false;
+  int j0, cnt;
+  if (!sector_span(ax, ay, bx, by, &j0, &cnt)) return false;
+  const int l = std::bit_width(static_cast<unsigned>(cnt)) - 1;
+  const double* lo = &run_min_[(static_cast<size_t>(slice) * kLevels + l) * kSectors];
+  return r <= lo[j0] && r <= lo[(j0 + cnt - (1 << l)) & (kSectors - 1)];
+}
+
+inline bool SawLog::segment_surely_outside(int slice, Vec2 a, Vec2 b, double margin) const {
+  const Vec2 c = model_->stem.pith[slice];
+  const double ax = a.x - c.x, ay = a.y - c.y, bx = b.x - c.x, by = b.y - c.y;
+  // Nearest point of the segment to the pith.
+  const double ex = bx - ax, ey = by - ay, ee = ex * ex + ey * ey;
+  const double t = ee > 0 ? std::clamp(-(ax * ex + ay * ey) / ee, 0.0, 1.0) : 0.0;
+  const double nx = ax + t * ex, ny = ay + t * ey;
+  const double r = std::sqrt(nx * nx + ny * ny) - margin;
+  if (r * r > rmax2_[slice] * (1 + 1e-9) && r > 0) return true;
+  if (!(r > 0) || r * r <= rmin2_[slice]) return false;
+  int j0, cnt;
+  if (!sector_span(ax, ay, bx, by, &j0, &cnt)) return false;
+  const int l = std::bit_width(static_cast<unsigned>(cnt)) - 1;
+  const double* hi = &run_max_[(static_cast<size_t>(slice) * kLevels + l) * kSectors];
+  return r > hi[j0] && r > hi[(j0 + cnt - (1 << l)) & (kSectors - 1)];
+}
 
 }  // namespace sawyer::sawing
