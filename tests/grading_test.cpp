@@ -12,6 +12,7 @@
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
 #include "sawyer/sawing/value.h"
+#include "sawyer/test/sawing_fixtures.h"
 #include "sawyer/test/test_util.h"
 
 using namespace sawyer;
@@ -19,44 +20,17 @@ using namespace sawyer::sawing;
 
 namespace {
 
-LogModel cylinder(double R, double length = 3000.0) {
-  LogModel log;
-  log.id = "synthetic";
-  log.stem.dz_mm = 10.0;
-  log.stem.z0_mm = 5.0;
-  log.stem.n_angles = 360;
-  for (int i = 0; i < static_cast<int>(length / 10.0); ++i) {
-    log.stem.pith.push_back({0, 0});
-    log.stem.radius.push_back(std::vector<double>(360, R));
-  }
-  return log;
-}
+using test::cylinder_log;
 
 // Straight horizontal knot along +x at height z0: d(r) = d_dead·r/r_dead up to r_dead, then
 // d_dead (dead).
 Knot knot_along_x(int id, double z0, double r_dead, double d_dead) {
-  Knot k;
-  k.id = id;
-  k.z0 = z0;
-  k.r_dead = r_dead;
-  k.r_end = 150.0;
-  k.diameter.d_dead = d_dead;
-  k.diameter.exponent = 1.0;
-  return k;
+  return test::straight_knot(id, z0, 0.0, r_dead, d_dead);
 }
 
 // One board centred on the pith, thickness along u: a knot along +x crosses face+ at r = t/2.
 Pattern centred_board(double thickness, double width) {
-  Pattern p;
-  p.name = "test";
-  p.wane.min_length_mm = 0;
-  p.wane.length_step_mm = 0;
-  BoardSpec b;
-  b.name = "b";
-  b.thickness_mm = thickness;
-  b.width_mm = width;
-  p.boards.push_back(b);
-  return p;
+  return test::single_board_pattern(0, 0, thickness, width);
 }
 
 GradingRules rules_from(const std::string& json) {
@@ -85,7 +59,7 @@ Board one_board(const LogModel& log, const Pattern& p) {
 }  // namespace
 
 TEST(Grading, KnotOnAFaceAtALimitGradesOnBothSidesOfIt) {
-  LogModel log = cylinder(200.0);
+  LogModel log = cylinder_log(200.0);
   log.knots.push_back(knot_along_x(3, 1500.0, 60.0, 60.0));  // d(20) = 20 mm, sound
   const Board b = one_board(log, centred_board(40.0, 150.0));
   ASSERT_EQ(b.knots.size(), 1u);
@@ -113,7 +87,7 @@ TEST(Grading, KnotOnAFaceAtALimitGradesOnBothSidesOfIt) {
 }
 
 TEST(Grading, LimitsScaleWithBoardWidth) {
-  LogModel log = cylinder(200.0);
+  LogModel log = cylinder_log(200.0);
   log.knots.push_back(knot_along_x(3, 1500.0, 60.0, 60.0));       // 20 mm on face+
   const GradingRules rules = rules_from(three_grades(0.0, 0.2));  // A: sound ≤ 0.2 × width
   // Width 150: 30 mm allowed; width 75: 15 mm.
@@ -125,9 +99,9 @@ TEST(Grading, LimitsScaleWithBoardWidth) {
 
 TEST(Grading, DeadAndSoundKnotsOfTheSameSizeGradeDifferently) {
   const GradingRules rules = rules_from(three_grades(25.0));  // A: sound ≤ 25, dead ≤ 10
-  LogModel sound = cylinder(200.0);
+  LogModel sound = cylinder_log(200.0);
   sound.knots.push_back(knot_along_x(1, 1500.0, 60.0, 60.0));  // 20 mm sound at r = 20
-  LogModel dead = cylinder(200.0);
+  LogModel dead = cylinder_log(200.0);
   dead.knots.push_back(knot_along_x(1, 1500.0, 10.0, 20.0));  // 20 mm dead (r > r_dead = 10)
   const Board bs = one_board(sound, centred_board(40.0, 150.0));
   const Board bd = one_board(dead, centred_board(40.0, 150.0));
@@ -142,7 +116,7 @@ TEST(Grading, DeadAndSoundKnotsOfTheSameSizeGradeDifferently) {
 }
 
 TEST(Grading, KnotCountsPerMetre) {
-  LogModel log = cylinder(200.0);
+  LogModel log = cylinder_log(200.0);
   for (int i = 0; i < 4; ++i) log.knots.push_back(knot_along_x(i, 400.0 + 700.0 * i, 60, 10));
   const Board b = one_board(log, centred_board(40.0, 150.0));
   ASSERT_EQ(b.knots.size(), 4u);
@@ -161,7 +135,7 @@ TEST(Grading, ClearLogGradesBestOnEveryBoard) {
     SCOPED_TRACE(file);
     Result<GradingRules> rules = read_grading_file(test::source_dir() / file);
     ASSERT_TRUE(rules.ok()) << rules.error().message();
-    const LogModel log = cylinder(200.0);
+    const LogModel log = cylinder_log(200.0);
     const SawResult r = saw(SawLog(log), two_ex_pattern({}), {});
     ASSERT_EQ(r.boards.size(), 4u);
     for (const Board& b : r.boards) EXPECT_EQ(grade_board(b, rules.value()).grade, 0) << b.name;
@@ -206,7 +180,7 @@ TEST(Grading, BadRuleFilesNameTheKey) {
 }
 
 TEST(Value, BoardValueIsVolumeTimesPriceForItsGradeAndSize) {
-  LogModel log = cylinder(200.0);
+  LogModel log = cylinder_log(200.0);
   log.knots.push_back(knot_along_x(3, 1500.0, 60.0, 60.0));
   const SawResult r = saw(SawLog(log), centred_board(40.0, 150.0), {});
   const GradingRules rules = rules_from(three_grades(19.0));  // the 20 mm knot: B

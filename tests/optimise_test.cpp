@@ -11,38 +11,15 @@
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
 #include "sawyer/sawing/value.h"
+#include "sawyer/test/sawing_fixtures.h"
 
 using namespace sawyer;
 using namespace sawyer::sawing;
 
 namespace {
 
-LogModel cylinder(double R, double length = 3000.0) {
-  LogModel log;
-  log.id = "synthetic";
-  log.stem.dz_mm = 10.0;
-  log.stem.z0_mm = 5.0;
-  log.stem.n_angles = 360;
-  for (int i = 0; i < static_cast<int>(length / 10.0); ++i) {
-    log.stem.pith.push_back({0, 0});
-    log.stem.radius.push_back(std::vector<double>(360, R));
-  }
-  return log;
-}
-
-// Straight horizontal knot at height z0 along scanner azimuth omega0 (rad): d(r) = 30·r/60 up to
-// r_dead = 60 mm, then 30 mm (dead).
-Knot straight_knot(int id, double z0, double omega0) {
-  Knot k;
-  k.id = id;
-  k.z0 = z0;
-  k.omega0 = omega0;
-  k.r_dead = 60.0;
-  k.r_end = 150.0;
-  k.diameter.d_dead = 30.0;
-  k.diameter.exponent = 1.0;
-  return k;
-}
+using test::cylinder_log;
+using test::straight_knot;
 
 // A: sound face knots ≤ 13 mm, no dead knot over 10 mm anywhere; B: sound ≤ 20; C: anything.
 GradingRules test_rules() {
@@ -63,18 +40,8 @@ PriceTable test_prices() {
   return p.value();
 }
 
-Pattern centred_board() {
-  Pattern p;
-  p.name = "one board";
-  p.wane.min_length_mm = 0;
-  p.wane.length_step_mm = 0;
-  BoardSpec b;
-  b.name = "b";
-  b.thickness_mm = 50.0;  // faces at u = ±25
-  b.width_mm = 150.0;     // edges at v = ±75
-  p.boards.push_back(b);
-  return p;
-}
+// One 50 × 150 board on the pith: faces at u = ±25, edges at v = ±75.
+Pattern centred_board() { return test::single_board_pattern(0, 0, 50.0, 150.0); }
 
 }  // namespace
 
@@ -98,7 +65,7 @@ TEST(Optimise, PatternSymmetryIsDetected) {
 // pattern angle φ the section across the face is (r_face / 2) / cos² φ with r_face = 25 ± x, so the
 // plateau of A (≤ 13 mm) is centred on 130° and, the worse of the two faces deciding, on x = 0.
 TEST(Optimise, FindsThePositionPlacedByConstruction) {
-  LogModel log = cylinder(200.0);
+  LogModel log = cylinder_log(200.0);
   for (int i = 0; i < 4; ++i)
     log.knots.push_back(straight_knot(i, 600.0 + 600.0 * i, (i % 2 ? 230.0 : 50.0) * kPi / 180));
   const SawLog saw_log(log);
@@ -159,7 +126,7 @@ TEST(Optimise, SmoothingWrapsAcross180DegreesWithMirroredOffsets) {
 }
 
 TEST(Optimise, SymmetricPatternOnASymmetricLogRepeatsEvery180Degrees) {
-  LogModel log = cylinder(160.0);
+  LogModel log = cylinder_log(160.0);
   const double az[] = {10, 75, 140, 200, 260, 330};
   for (int i = 0; i < 6; ++i)
     log.knots.push_back(straight_knot(i, 300.0 + 450.0 * i, az[i] * kPi / 180));

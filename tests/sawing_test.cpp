@@ -12,72 +12,16 @@
 #include "sawyer/sawing/sawing.h"
 #include "sawyer/sawing/setup.h"
 #include "sawyer/sawing/value.h"
+#include "sawyer/test/sawing_fixtures.h"
 #include "sawyer/test/test_util.h"
 
 using namespace sawyer;
 using namespace sawyer::sawing;
 
-namespace {
-
-// A log along z from 0 to `length` (10 mm samples), radius R(z), pith p(z).
-LogModel make_log(
-    double length, const std::function<double(double)>& radius,
-    const std::function<Vec2(double)>& pith = [](double) {
-      return Vec2{0, 0};
-    }) {
-  LogModel log;
-  log.id = "synthetic";
-  log.stem.dz_mm = 10.0;
-  log.stem.z0_mm = 5.0;
-  log.stem.n_angles = 360;
-  const int n = static_cast<int>(length / 10.0);
-  for (int i = 0; i < n; ++i) {
-    const double z = log.stem.z_at(i);
-    log.stem.pith.push_back(pith(z));
-    log.stem.radius.push_back(std::vector<double>(360, radius(z)));
-  }
-  return log;
-}
-
-LogModel cylinder(double R, double length = 3000.0) {
-  return make_log(length, [R](double) { return R; });
-}
-
-// A straight horizontal knot at height z0 along azimuth omega0: axis r ↦ (r cos ω, r sin ω, z0),
-// diameter d(r) = 30·r/60 up to r_dead = 60, then 30.
-Knot straight_knot(int id, double z0, double omega0) {
-  Knot k;
-  k.id = id;
-  k.z0 = z0;
-  k.omega0 = omega0;
-  k.r_dead = 60.0;
-  k.r_end = 150.0;
-  k.diameter.d_dead = 30.0;
-  k.diameter.exponent = 1.0;
-  return k;
-}
-
-Pattern single_board(double u, double v, double thickness, double width,
-                     ThicknessAxis axis = ThicknessAxis::kU) {
-  Pattern p;
-  p.name = "test";
-  p.wane.min_length_mm = 0;
-  p.wane.length_step_mm = 0;
-  BoardSpec b;
-  b.name = "b";
-  b.u_mm = u;
-  b.v_mm = v;
-  b.thickness_mm = thickness;
-  b.width_mm = width;
-  b.thickness_axis = axis;
-  p.boards.push_back(b);
-  return p;
-}
-
-}  // namespace
+using test::straight_knot;
 
 TEST(Sawing, PerpendicularKnotCrossesFaceAtPredictedPlaceAndSize) {
-  LogModel log = cylinder(200.0);
+  LogModel log = test::cylinder_log(200.0);
   log.knots.push_back(straight_knot(7, 1500.0, 0.0));
   const SawLog saw_log(log);
   // Straight log: rotation 0 leaves the pattern frame on the scanner frame (u = x, v = y).
@@ -85,7 +29,7 @@ TEST(Sawing, PerpendicularKnotCrossesFaceAtPredictedPlaceAndSize) {
        {std::tuple{40.0, false, false}, std::tuple{60.0, false, true},
         std::tuple{100.0, true, true}}) {
     SCOPED_TRACE(u);
-    const SawResult r = saw(saw_log, single_board(u, 0.0, 20.0, 100.0), {});
+    const SawResult r = saw(saw_log, test::single_board_pattern(u, 0.0, 20.0, 100.0), {});
     ASSERT_EQ(r.boards.size(), 1u);
     const Board& b = r.boards[0];
     ASSERT_EQ(b.knots.size(), 2u);
@@ -113,11 +57,11 @@ TEST(Sawing, PerpendicularKnotCrossesFaceAtPredictedPlaceAndSize) {
 }
 
 TEST(Sawing, KnotAtAnAngleShowsAnElongatedSection) {
-  LogModel log = cylinder(200.0);
+  LogModel log = test::cylinder_log(200.0);
   Knot k = straight_knot(1, 1500.0, 0.0);
   k.b = 1.0;  // rises 1 mm per mm: 45° to the face
   log.knots.push_back(k);
-  const SawResult r = saw(SawLog(log), single_board(50.0, 0.0, 20.0, 100.0), {});
+  const SawResult r = saw(SawLog(log), test::single_board_pattern(50.0, 0.0, 20.0, 100.0), {});
   ASSERT_EQ(r.boards.size(), 1u);
   ASSERT_EQ(r.boards[0].knots.size(), 2u);
   const KnotOnSide& inner = r.boards[0].knots[1];
@@ -131,13 +75,13 @@ TEST(Sawing, KnotAtAnAngleShowsAnElongatedSection) {
 }
 
 TEST(Sawing, EdgeAndArrisKnots) {
-  LogModel log = cylinder(200.0);
+  LogModel log = test::cylinder_log(200.0);
   log.knots.push_back(
       straight_knot(1, 1000.0, 0.5 * kPi));            // along +v: crosses edges of a kU board
   log.knots.push_back(straight_knot(2, 2000.0, 0.0));  // along +u at v = 0
   // Board 20 thick (u ∈ [−10, 10]), 100 wide (v ∈ [−50, 50]) centred on the pith: knot 1 leaves
   // through edge+ (v = 50), knot 2 through face+ (u = 10); both start inside the board.
-  const SawResult r = saw(SawLog(log), single_board(0.0, 0.0, 20.0, 100.0), {});
+  const SawResult r = saw(SawLog(log), test::single_board_pattern(0.0, 0.0, 20.0, 100.0), {});
   ASSERT_EQ(r.boards.size(), 1u);
   int edge = 0, face = 0;
   for (const KnotOnSide& k : r.boards[0].knots) {
@@ -158,7 +102,7 @@ TEST(Sawing, EdgeAndArrisKnots) {
 }
 
 TEST(Sawing, ClearLogGivesBoardsWithoutKnots) {
-  const LogModel log = cylinder(200.0);
+  const LogModel log = test::cylinder_log(200.0);
   const SawResult r = saw(SawLog(log), two_ex_pattern({}), {});
   ASSERT_EQ(r.boards.size(), 4u);
   for (const Board& b : r.boards) {
@@ -176,7 +120,7 @@ TEST(Sawing, TwoExPatternIsSymmetric) {
   EXPECT_NEAR(p.boards[3].u_mm, 51.5 + 3.0 + 12.5, 1e-12);  // outer centre face + kerf + half side
 
   // Two knots mirrored about the plane u = 0 (ω ↦ π − ω), rising through the wood.
-  LogModel log = cylinder(170.0);
+  LogModel log = test::cylinder_log(170.0);
   for (auto [id, w] : {std::pair{1, 0.2}, std::pair{2, kPi - 0.2}}) {
     Knot k = straight_knot(id, 1200.0, w);
     k.a = 4.0;
@@ -229,7 +173,7 @@ TEST(Sawing, FourExAndThroughAndThroughPresets) {
   EXPECT_NEAR(tt.boards[4].u_mm, 56.0, 1e-12);
   EXPECT_TRUE(tt.validate());
   // Through-and-through boards are edged to standard widths the log allows.
-  const SawResult r = saw(SawLog(cylinder(120.0)), tt, {});
+  const SawResult r = saw(SawLog(test::cylinder_log(120.0)), tt, {});
   ASSERT_EQ(r.boards.size(), 5u);
   for (const Board& b : r.boards) {
     EXPECT_NE(std::find(tt.standard_widths_mm.begin(), tt.standard_widths_mm.end(), b.width_mm),
@@ -240,7 +184,7 @@ TEST(Sawing, FourExAndThroughAndThroughPresets) {
 }
 
 TEST(Sawing, PatternTooBigForTheLogIsRefusedNamingTheUsableDiameter) {
-  const LogModel log = cylinder(80.0);
+  const LogModel log = test::cylinder_log(80.0);
   const SawLog saw_log(log);
   EXPECT_NEAR(saw_log.usable_diameter_mm(), 160.0, 1e-9);
   const Pattern p = two_ex_pattern({});  // corners at (51.5, 75): needs 182 mm
@@ -254,7 +198,7 @@ TEST(Sawing, PatternTooBigForTheLogIsRefusedNamingTheUsableDiameter) {
 }
 
 TEST(Sawing, UsableDiameterIsTheTopEnd) {
-  const LogModel log = make_log(3000.0, [](double z) { return 150.0 - 0.02 * z; });
+  const LogModel log = test::synthetic_log(3000.0, [](double z) { return 150.0 - 0.02 * z; });
   EXPECT_NEAR(SawLog(log).usable_diameter_mm(), 2 * (150.0 - 0.02 * 2995.0), 1e-9);
 }
 
@@ -328,7 +272,7 @@ TEST(Sawing, BadPatternFilesGiveOneClearError) {
 }
 
 TEST(Sawing, BoardVolumeInABigCylinderIsTheBox) {
-  const SawResult r = saw(SawLog(cylinder(500.0)), single_board(30.0, -20.0, 50.0, 150.0), {});
+  const SawResult r = saw(SawLog(test::cylinder_log(500.0)), test::single_board_pattern(30.0, -20.0, 50.0, 150.0), {});
   ASSERT_EQ(r.boards.size(), 1u);
   const Board& b = r.boards[0];
   EXPECT_NEAR(b.length_mm(), 3000.0, 1e-9);
@@ -340,7 +284,7 @@ TEST(Sawing, BoardVolumeInABigCylinderIsTheBox) {
 
 TEST(Sawing, WaneWhereABoardLeavesASmallCylinder) {
   // 60 × 150 board about the pith in an R = 80 cylinder: the corners (30, 75) lie outside.
-  const SawResult r = saw(SawLog(cylinder(80.0)), single_board(0.0, 0.0, 60.0, 150.0), {});
+  const SawResult r = saw(SawLog(test::cylinder_log(80.0)), test::single_board_pattern(0.0, 0.0, 60.0, 150.0), {});
   ASSERT_EQ(r.boards.size(), 1u);
   const Board& b = r.boards[0];
   const double face = 2 * (75.0 - std::sqrt(80.0 * 80.0 - 30.0 * 30.0));  // both ends of a face
@@ -358,8 +302,8 @@ TEST(Sawing, WaneWhereABoardLeavesASmallCylinder) {
 TEST(Sawing, BoardIsTrimmedWhereTheWaneExceedsTheRules) {
   // A cone from R = 100 to R = 55: a 40 × 120 board (corner radius 63.2) gets too much wane near
   // the top and is trimmed to whole 300 mm steps, centred in the run of acceptable wane.
-  const LogModel log = make_log(3000.0, [](double z) { return 100.0 - 0.015 * z; });
-  Pattern p = single_board(0.0, 0.0, 40.0, 120.0);
+  const LogModel log = test::synthetic_log(3000.0, [](double z) { return 100.0 - 0.015 * z; });
+  Pattern p = test::single_board_pattern(0.0, 0.0, 40.0, 120.0);
   p.wane.length_step_mm = 300.0;
   p.wane.min_length_mm = 900.0;
   const SawResult r = saw(SawLog(log), p, {});
@@ -380,7 +324,7 @@ TEST(Sawing, BoardIsTrimmedWhereTheWaneExceedsTheRules) {
 TEST(Sawing, BowDetectionFindsTheHornsFromAConstructedPith) {
   const double L = 3000.0;
   // Middle bulging 20 mm towards −y: horns point +y.
-  const LogModel down = make_log(
+  const LogModel down = test::synthetic_log(
       L, [](double) { return 150.0; },
       [L](double z) {
         return Vec2{5.0, 3.0 - 20.0 * std::sin(kPi * z / L)};
@@ -389,7 +333,7 @@ TEST(Sawing, BowDetectionFindsTheHornsFromAConstructedPith) {
   EXPECT_NEAR(b.horns_azimuth, 0.5 * kPi, 1e-6);
   EXPECT_NEAR(b.height_mm, 20.0, 0.25);  // chord through the end samples, 5 mm in
   // Middle bulging towards (1, 1)/√2: horns at 225°.
-  const LogModel diag = make_log(
+  const LogModel diag = test::synthetic_log(
       L, [](double) { return 150.0; },
       [L](double z) {
         const double s = 10.0 * std::sin(kPi * z / L);
@@ -398,7 +342,7 @@ TEST(Sawing, BowDetectionFindsTheHornsFromAConstructedPith) {
   b = detect_bow(diag.stem);
   EXPECT_NEAR(b.horns_azimuth, 1.25 * kPi, 1e-6);
   // A straight log has no bow and the default horns direction (−y).
-  b = detect_bow(cylinder(100.0).stem);
+  b = detect_bow(test::cylinder_log(100.0).stem);
   EXPECT_EQ(b.height_mm, 0.0);
   EXPECT_NEAR(b.horns_azimuth, 1.5 * kPi, 1e-12);
 }
@@ -407,7 +351,7 @@ TEST(Sawing, RotationZeroPutsTheHornsDown) {
   // Bowed log, horns towards +x; a knot along +x (the horns' side) must come out along −v at
   // rotation 0 and along +u at rotation 90° (counter-clockwise).
   const double L = 3000.0;
-  LogModel log = make_log(
+  LogModel log = test::synthetic_log(
       L, [](double) { return 200.0; },
       [L](double z) {
         return Vec2{-15.0 * std::sin(kPi * z / L), 0.0};
@@ -416,7 +360,7 @@ TEST(Sawing, RotationZeroPutsTheHornsDown) {
   const SawLog saw_log(log);
   EXPECT_NEAR(saw_log.bow().horns_azimuth, 0.0, 1e-6);
   // Horizontal board below the pith (thickness along v): the knot crosses its faces.
-  const Pattern below = single_board(0.0, -60.0, 20.0, 100.0, ThicknessAxis::kV);
+  const Pattern below = test::single_board_pattern(0.0, -60.0, 20.0, 100.0, ThicknessAxis::kV);
   SawResult r = saw(saw_log, below, {});
   ASSERT_EQ(r.boards.size(), 1u);
   EXPECT_EQ(r.boards[0].knots.size(), 2u);
@@ -424,7 +368,7 @@ TEST(Sawing, RotationZeroPutsTheHornsDown) {
   r = saw(saw_log, below, {.rotation_deg = 90.0});
   ASSERT_EQ(r.boards.size(), 1u);
   EXPECT_TRUE(r.boards[0].knots.empty());
-  const Pattern right = single_board(60.0, 0.0, 20.0, 100.0);
+  const Pattern right = test::single_board_pattern(60.0, 0.0, 20.0, 100.0);
   r = saw(saw_log, right, {.rotation_deg = 90.0});
   ASSERT_EQ(r.boards.size(), 1u);
   EXPECT_EQ(r.boards[0].knots.size(), 2u);
@@ -436,11 +380,11 @@ TEST(Sawing, RotationZeroPutsTheHornsDown) {
 }
 
 TEST(Sawing, KnotInsideABoardIsHidden) {
-  LogModel log = cylinder(200.0);
+  LogModel log = test::cylinder_log(200.0);
   Knot k = straight_knot(3, 1500.0, 0.0);
   k.r_end = 8.0;  // ends inside a 20 mm board centred on the pith
   log.knots.push_back(k);
-  const SawResult r = saw(SawLog(log), single_board(0.0, 0.0, 20.0, 100.0), {});
+  const SawResult r = saw(SawLog(log), test::single_board_pattern(0.0, 0.0, 20.0, 100.0), {});
   ASSERT_EQ(r.boards.size(), 1u);
   EXPECT_TRUE(r.boards[0].knots.empty());
   ASSERT_EQ(r.boards[0].hidden_knots.size(), 1u);
