@@ -40,6 +40,7 @@
 #include "sawyer/render/gl_context.h"
 #include "sawyer/render/views.h"
 #include "sawyer/render/wood_renderer.h"
+#include "sawyer/test/render_context.h"
 #include "sawyer/test/test_util.h"
 
 namespace sawyer::render {
@@ -64,15 +65,6 @@ constexpr double kMinKnotIou = 0.5;   // each crossing knot
 constexpr double kMaxCentreMm = 3.0;  // each crossing knot
 constexpr double kMinOverallIou = 0.7;
 constexpr double kMinDeadAgree = 0.9;
-
-void ensure_context() {
-  static std::unique_ptr<GlContext> ctx = [] {
-    auto c = create_headless_context();
-    if (!c) ADD_FAILURE() << c.error().message();
-    return c ? std::move(c).value() : nullptr;
-  }();
-  if (!ctx) throw std::runtime_error("no headless OpenGL context");
-}
 
 std::filesystem::path published_dir() {
   return test::sample_log("gran1_spruce") / "published_maps";
@@ -308,7 +300,7 @@ struct Faces {
 
 const Faces& our_whorl_board_faces() {
   static const Faces f = [] {
-    ensure_context();
+    test::ensure_headless_context();
     Faces out;
     auto r = WoodRenderer::create(imported());
     if (!r.ok()) throw std::runtime_error(r.error().message());
@@ -451,7 +443,7 @@ TEST(PublishedRender, KnotAxesWithinTheMapsRange) {
 // region; it holds the stem's time to the same bound and only reports the merged rings and the
 // knots (docs/render.md, "Agreement with the published renderer").
 TEST(PublishedRender, BeyondRminReport) {
-  ensure_context();
+  test::ensure_headless_context();
   auto r = WoodRenderer::create(imported());
   ASSERT_TRUE(r.ok()) << r.error().message();
   Board b = whorl_board(port());

@@ -13,19 +13,11 @@
 #include "sawyer/render/gl_context.h"
 #include "sawyer/render/views.h"
 #include "sawyer/render/wood_renderer.h"
+#include "sawyer/test/render_context.h"
 #include "sawyer/test/test_util.h"
 
 namespace sawyer::render {
 namespace {
-
-void ensure_context() {
-  static std::unique_ptr<GlContext> ctx = [] {
-    auto c = create_headless_context();
-    if (!c) ADD_FAILURE() << c.error().message();
-    return c ? std::move(c).value() : nullptr;
-  }();
-  if (!ctx) throw std::runtime_error("no headless OpenGL context");
-}
 
 const LogModel& generated_pine() {
   static const LogModel log = [] {
@@ -103,7 +95,7 @@ void expect_agreement(const Agreement& a, const std::string& what) {
 constexpr double kTol = 2e-3;  // of the stem's growth (1 = pith to bark)
 
 TEST(RenderField, Gran1CrossSectionsAgreeWithWoodField) {
-  ensure_context();
+  test::ensure_headless_context();
   const LogModel& log = test::sample_model("gran1_spruce");
   ASSERT_GT(log.knots.size(), 100u);
   auto r = WoodRenderer::create(log);
@@ -123,7 +115,7 @@ TEST(RenderField, Gran1CrossSectionsAgreeWithWoodField) {
 }
 
 TEST(RenderField, Gran1BoardFaceAgreesWithWoodField) {
-  ensure_context();
+  test::ensure_headless_context();
   const LogModel& log = test::sample_model("gran1_spruce");
   auto r = WoodRenderer::create(log);
   ASSERT_TRUE(r.ok()) << r.error().message();
@@ -148,7 +140,7 @@ TEST(RenderField, Gran1BoardFaceAgreesWithWoodField) {
 }
 
 TEST(RenderField, GeneratedPineAgreesWithWoodField) {
-  ensure_context();
+  test::ensure_headless_context();
   const LogModel& log = generated_pine();
   ASSERT_GT(log.knots.size(), 20u);
   ASSERT_TRUE(log.stem.has_heartwood());
@@ -169,7 +161,7 @@ TEST(RenderField, GeneratedPineAgreesWithWoodField) {
 }
 
 TEST(RenderField, KnotIndexChangesNothing) {
-  ensure_context();
+  test::ensure_headless_context();
   const LogModel& log = test::sample_model("gran1_spruce");
   RenderOptions all;
   all.knot_index = false;

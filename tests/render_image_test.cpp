@@ -14,6 +14,7 @@
 #include "sawyer/render/gl_context.h"
 #include "sawyer/render/views.h"
 #include "sawyer/render/wood_renderer.h"
+#include "sawyer/test/render_context.h"
 #include "sawyer/test/test_util.h"
 
 namespace sawyer::render {
@@ -21,21 +22,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void ensure_context() {
-  static std::unique_ptr<GlContext> ctx = [] {
-    auto c = create_headless_context();
-    if (!c) ADD_FAILURE() << c.error().message();
-    return c ? std::move(c).value() : nullptr;
-  }();
-  if (!ctx) throw std::runtime_error("no headless OpenGL context");
-}
-
 float luminance(const Image& img, int x, int y) {
   return 0.2126f * img.value(x, y, 0) + 0.7152f * img.value(x, y, 1) + 0.0722f * img.value(x, y, 2);
 }
 
 TEST(RenderImage, BoardFaceIsWrittenAndShowsTheKnots) {
-  ensure_context();
+  test::ensure_headless_context();
   const LogModel& log = test::sample_model("gran1_spruce");
   auto r = WoodRenderer::create(log);
   ASSERT_TRUE(r.ok()) << r.error().message();
@@ -113,7 +105,7 @@ TEST(RenderImage, FailedWriteLeavesNothing) {
 }
 
 TEST(RenderImage, HeartwoodIsDarkerThanSapwood) {
-  ensure_context();
+  test::ensure_headless_context();
   GeneratorOptions o;
   o.species = Species::kPine;
   o.seed = 11;
