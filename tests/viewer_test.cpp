@@ -342,22 +342,10 @@ std::string viewer_bin() {
   return (env && *env) ? env : SAWYER_VIEW_BIN;
 }
 
-int run(const std::string& command, std::string* output) {
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) return -1;
-  std::array<char, 4096> buf{};
-  std::string out;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) out.append(buf.data(), n);
-  const int status = pclose(pipe);
-  if (output) *output = out;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 int run_viewer(const std::string& args, std::string* output, const std::string& display = "") {
   std::string env = display.empty() ? "env -u DISPLAY -u WAYLAND_DISPLAY "
                                     : "env -u WAYLAND_DISPLAY DISPLAY=" + display + " ";
-  return run(env + test::quoted(viewer_bin()) + " " + args, output);
+  return test::run_command(env + test::quoted(viewer_bin()) + " " + args, output);
 }
 
 int lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
@@ -413,7 +401,7 @@ class Xvfb {
                             test::quoted(file) + " >/dev/null 2>" +
                             test::quoted(dir_ / "xvfb.log") + " & echo $!";
     std::string out;
-    if (run(cmd, &out) != 0) return;
+    if (test::run_command(cmd, &out) != 0) return;
     pid_ = std::atoi(out.c_str());
     // The server writes its display number once it accepts connections (give up after 30 s).
     for (int i = 0; i < 300 && display_.empty(); ++i) {

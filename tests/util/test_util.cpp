@@ -52,11 +52,8 @@ std::string quoted(const fs::path& p) {
   return q;
 }
 
-int run_sawyer(const std::string& args, std::string* output) {
-  const char* env = std::getenv("SAWYER_BIN");
-  const char* bin = (env && *env) ? env : SAWYER_TEST_BIN;
-  const std::string cmd = std::string("\"") + bin + "\" " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
+int run_command(const std::string& command, std::string* output) {
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
   if (!pipe) return -1;
   std::array<char, 4096> buf{};
   std::string out;
@@ -65,6 +62,12 @@ int run_sawyer(const std::string& args, std::string* output) {
   const int status = pclose(pipe);
   if (output) *output = out;
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+int run_sawyer(const std::string& args, std::string* output) {
+  const char* env = std::getenv("SAWYER_BIN");
+  const char* bin = (env && *env) ? env : SAWYER_TEST_BIN;
+  return run_command(std::string("\"") + bin + "\" " + args, output);
 }
 
 void write_file(const fs::path& path, const std::string& text) {
