@@ -20,6 +20,8 @@
 #include <vector>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/interrupt.h"
+#include "sawyer/core/output_guard.h"
 #include "sawyer/register/job_pool.h"
 #include "sawyer/register/log_register.h"
 #include "sawyer/register/manifest.h"
@@ -126,6 +128,19 @@ int run(const BatchCli& c) {
   Result<fs::path> exe = self_exe();
   if (!exe) return fail(exe.error());
 
+  // The batch's own names in the output folder cannot be log ids: a log "logs" would replace the
+  // folder of every log's .out/.err.
+  for (const ManifestRow& r : manifest.value().rows) {
+    if (r.id == "logs" || (r.id.starts_with("batch_") && r.id.ends_with(".csv")))
+      return fail(Error(c.manifest, "id '" + r.id + "' (row " + std::to_string(r.index + 1) +
+                                        ") is reserved for the batch's own files (logs/, "
+                                        "batch_<i>.csv); give the log another id"));
+  }
+  // Several shards write one batch folder at once (each its own batch_<i>.csv), so there is no
+  // lock on it; but it must be empty, new, or a batch folder, and each log's `sawyer run`
+  // guards and locks its own <dir>/<id>.
+  if (Status st = check_output({c.output, OutputKind::kBatchFolder, {c.manifest}, "-o"}); !st)
+    return fail(st.error());
   const fs::path out_dir = fs::absolute(c.output);
   std::error_code ec;
   fs::create_directories(out_dir / "logs", ec);
@@ -133,8 +148,11 @@ int run(const BatchCli& c) {
 
   // Open (and create) the register before starting anything: a bad db file should stop the
   // batch once, not fail every log.
-  const fs::path db = fs::absolute(c.db.empty() ? default_register_path() : fs::path(c.db));
+  fs::path db;
   if (!c.no_register) {
+    Result<fs::path> db_path = register_path(c.db);
+    if (!db_path) return fail(db_path.error());
+    db = fs::absolute(db_path.value());
     Result<LogRegister> reg = LogRegister::open(db);
     if (!reg) return fail(reg.error());
   }
@@ -222,8 +240,9 @@ void add_batch_command(CLI::App& app, std::function<int()>& run_out) {
                   "output folder: <dir>/<id>/ per log, <dir>/logs/<id>.err, <dir>/batch_<i>.csv")
       ->required();
   cmd->add_option("-j,--jobs", c->jobs,
-                  "logs at once, each its own process (memory: N times one log's peak)")
-      ->capture_default_str();
+                  "logs at once, 1-256, each its own process (memory: N times one log's peak)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
   cmd->add_option("--shard", c->shard,
                   "i/N: only rows with row_index % N == i, 0-based, e.g. "
                   "${SLURM_ARRAY_TASK_ID}/${SLURM_ARRAY_TASK_COUNT}")
@@ -234,7 +253,8 @@ void add_batch_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_flag("--no-register", c->no_register, "do not register the logs");
   cmd->add_option("--timeout", c->timeout_s,
                   "seconds a log may take before it is stopped and counted failed (0: no limit)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e7));
   cmd->add_option("run_options", c->pass,
                   "after --: options for every `sawyer run` (--pattern, --grading, --prices, "
                   "...); manifest cells override them");

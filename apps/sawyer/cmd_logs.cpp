@@ -161,7 +161,9 @@ void print_csv(const std::vector<LogRecord>& rows) {
 }
 
 int run(const LogsCli& c) {
-  const fs::path db = c.db.empty() ? default_register_path() : fs::path(c.db);
+  Result<fs::path> db_path = register_path(c.db);
+  if (!db_path) return fail(db_path.error());
+  const fs::path db = db_path.value();
   if (!c.merge.empty()) {
     Result<LogRegister> reg = LogRegister::open(db);
     if (!reg) return fail(reg.error());

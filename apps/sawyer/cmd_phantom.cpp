@@ -11,6 +11,7 @@
 #include <string>
 
 #include "log_source.h"
+#include "sawyer/core/output_guard.h"
 #include "sawyer/ct/phantom.h"
 
 namespace sawyer::app {
@@ -41,6 +42,9 @@ int run(const PhantomCli& c) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::exists(c.input, ec)) return fail(Error(c.input, "no such file or folder"));
+  Result<OutputLock> lock =
+      OutputLock::acquire({c.output, OutputKind::kPhantomFolder, {c.input}, "-o"});
+  if (!lock) return fail(lock.error());
   Result<LogModel> log = load_log(c.input);
   if (!log) return fail(log.error());
   auto ph = ct::Phantom::create(log.value(), o);
@@ -124,7 +128,8 @@ void add_phantom_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--rescale-intercept", c->rescale_intercept,
                   "DICOM and image stacks: stored = HU - intercept (default: 0 for DICOM, "
                   "-1024 for TIFF/PNG; volume files always store HU)");
-  cmd->add_option("--threads", o.threads, "worker threads (default: all cores)");
+  cmd->add_option("--threads", o.threads, "worker threads, 1-256 (default: all cores)")
+      ->check(CLI::Range(1, 256));
   cmd->callback([c, &run_out]() { run_out = [c]() { return run(*c); }; });
 }
 

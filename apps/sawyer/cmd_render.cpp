@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "log_source.h"
+#include "sawyer/core/output_guard.h"
+#include "sawyer/model/log_json.h"
 #include "sawyer/render/gl_context.h"
 #include "sawyer/render/views.h"
 #include "sawyer/render/wood_renderer.h"
@@ -54,9 +56,10 @@ Result<ImageSize> parse_size(const std::string& s) {
   } catch (const std::exception&) {
     return Error("--size", "'" + s + "' is not WxH or W (pixels)");
   }
-  if (out.width < 1 || out.width > 16384 ||
-      (x != std::string::npos && (out.height < 1 || out.height > 16384)))
-    return Error("--size", "'" + s + "': sides must be 1..16384 pixels");
+  if (out.width < 1 || out.width > kMaxImageSide ||
+      (x != std::string::npos && (out.height < 1 || out.height > kMaxImageSide)))
+    return Error("--size",
+                 "'" + s + "': sides must be 1.." + std::to_string(kMaxImageSide) + " pixels");
   return out;
 }
 
@@ -120,6 +123,15 @@ int run(const RenderCli& c) {
     return fail(Error("--board", "several boards need --view; render one board's faces at a time"));
   Result<ImageSize> size = parse_size(c.size);
   if (!size) return fail(size.error());
+  Result<OutputLock> lock =
+      OutputLock::acquire({c.output, OutputKind::kFile, {c.input, c.color_maps}, "-o"});
+  if (!lock) return fail(lock.error());
+  // The memory budget as far as the size is known before the content (a missing height follows
+  // the content's aspect ratio; the renderer checks the whole size again).
+  if (Status st = check_image_size(size.value().width, std::max(1, size.value().height),
+                                   c.field ? 1 : c.supersample, c.field);
+      !st)
+    return fail(st.error());
   Result<unsigned> faces = parse_faces(c.faces);
   if (!faces) return fail(faces.error());
   std::vector<Board> boards;
@@ -130,6 +142,21 @@ int run(const RenderCli& c) {
   }
   if (!(c.knot_noise >= 0 && c.knot_noise <= 0.5))
     return fail(Error("--knot-noise", "must be in [0, 0.5]"));
+  // Angles a turn either way; lengths within the log model's own limits (log_json.h).
+  const double reach = log_limits::kMaxAbsPithMm + log_limits::kMaxRadiusMm;
+  struct Bound {
+    const char* option;
+    std::optional<double> v;
+    double lo, hi;
+  };
+  for (const Bound& b :
+       {Bound{"--longitudinal", c.longitudinal_deg, -360, 360},
+        Bound{"--offset", c.offset_mm, -reach, reach}, Bound{"--yaw", c.yaw_deg, -360, 360},
+        Bound{"--pitch", c.pitch_deg, -90, 90}, Bound{"--distance", c.distance_mm, 0, 1e6},
+        Bound{"--section", c.section_z, -log_limits::kMaxAbsZMm, log_limits::kMaxAbsZMm},
+        Bound{"--look-at", c.look_at_z, -log_limits::kMaxAbsZMm, log_limits::kMaxAbsZMm}})
+    if (b.v && !(*b.v >= b.lo && *b.v <= b.hi))
+      return fail(Error(b.option, mm(*b.v) + " is outside " + mm(b.lo) + " to " + mm(b.hi)));
 
   std::error_code ec;
   if (!fs::exists(c.input, ec)) return fail(Error(c.input, "no such file or folder"));
@@ -261,7 +288,8 @@ void add_render_command(CLI::App& app, std::function<int()>& run_out) {
                   "view: height the camera looks at (mm; default mid-log)");
   cmd->add_flag("--no-surface", c->no_surface, "view: leave out the log's outer surface");
   cmd->add_option("--size", c->size,
-                  "image size WxH or W (pixels; without H the height follows the content)")
+                  "image size WxH or W (pixels, 1..8192 a side; without H the height follows "
+                  "the content)")
       ->capture_default_str();
   cmd->add_flag("--stretch", c->stretch, "fill the image even if that stretches the faces");
   cmd->add_option("--supersample", c->supersample,

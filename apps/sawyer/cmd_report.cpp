@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "sawyer/core/output_guard.h"
 #include "sawyer/report/report.h"
 #include "sawyer/report/run_folder.h"
 
@@ -23,6 +24,12 @@ struct ReportCli {
 };
 
 int run(const ReportCli& c) {
+  // A run of the same folder (or another report) writing at the same time is refused.
+  Result<OutputLock> lock = OutputLock::lock_only(c.folder, "");
+  if (!lock) {
+    std::cerr << "sawyer: " << lock.error().message() << "\n";
+    return 1;
+  }
   Result<report::RunFolder> folder = report::load_run_folder(c.folder);
   if (!folder) {
     std::cerr << "sawyer: " << folder.error().message() << "\n";

@@ -17,6 +17,7 @@
 #include "progress.h"
 #include "scan_job.h"
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/output_guard.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/model/log_summary.h"
 #include "sawyer/register/ct_checksum.h"
@@ -68,6 +69,18 @@ Json run_json(const RunCli& c, const ScanJob& scan, const std::string& source,
   j["species"] = scan.log.species;
   j["scan_source"] = source;
   j["scan_description"] = scan.source->description();
+  // Every note of the reader (resampled gaps, ignored files), and the resampling in one line.
+  Json notes = Json::array();
+  if (std::string z = ct::resampling_summary(scan.source->geometry()); !z.empty())
+    notes.push_back(z);
+  for (const std::string& n : scan.source->notes()) notes.push_back(n);
+  j["scan_notes"] = notes;
+  const ct::ZResampling& zr = scan.source->geometry().z_resampling;
+  j["z_resampling"] = {{"resampled", zr.resampled},
+                       {"source_slices", zr.source_slices},
+                       {"invented_slices", zr.invented_slices},
+                       {"gaps", zr.gaps},
+                       {"widest_gap_mm", zr.widest_gap_mm}};
   j["scan_checksum"] = checksum;
   j["slices"] = scan.stem.slices.size();
   j["knots"] = scan.log.knots.size();
@@ -132,12 +145,26 @@ int run(const RunCli& c) {
   const fs::path source_path = fs::weakly_canonical(c.scan.input, ec);
   const std::string source = ec ? c.scan.input : source_path.string();
   std::optional<reg::LogRegister> reg;
-  const fs::path db = c.db.empty() ? reg::default_register_path() : fs::path(c.db);
+  fs::path db;
   if (!c.no_register) {
+    Result<fs::path> db_path = reg::register_path(c.db);
+    if (!db_path) return fail(db_path.error());
+    db = db_path.value();
     Result<reg::LogRegister> r = reg::LogRegister::open(db);
     if (!r) return fail(r.error());
     reg.emplace(std::move(r.value()));
   }
+  // Then the scan is opened (headers only), then the output is checked.
+  auto opened = open_scan(c.scan);
+  if (!opened) return fail(opened.error());
+  // The output may replace only an empty folder or an earlier run folder, never the scan or a
+  // folder around it; the lock makes a second run of the same -o refuse at once.
+  OutputRequest out_req{c.output, OutputKind::kRunFolder, {c.scan.input}, "-o"};
+  for (const std::string* f : {&c.names.pattern, &c.names.grading, &c.names.prices})
+    if (!f->empty() && fs::exists(*f, ec)) out_req.inputs.emplace_back(*f);
+  if (!c.db.empty()) out_req.inputs.emplace_back(c.db);
+  Result<OutputLock> lock = OutputLock::acquire(out_req);
+  if (!lock) return fail(lock.error());
 
   StageBar bar(c.quiet);
   std::vector<Stage> stages;
@@ -147,7 +174,7 @@ int run(const RunCli& c) {
       bar.update("scan", done, total, "slices");
     else if (done == 0)
       bar.update("scan", 1, 1, "slices; knots...");
-  });
+  }, std::move(opened.value()));
   if (!scanned) return fail(scanned.error());
   const ScanJob& scan = scanned.value();
   stages.push_back({"scan", since(t)});
@@ -255,6 +282,8 @@ int run(const RunCli& c) {
                 100 * out.opt.gain_over_horns_down);
   if (const std::string note = sawing::offset_edge_note(out.opt); !su.position && !note.empty())
     std::printf("note: %s\n", note.c_str());
+  if (std::string z = ct::resampling_summary(scan.source->geometry()); !z.empty())
+    std::printf("note: %s\n", z.c_str());
   double board_m3 = 0;
   for (const auto& b : out.chosen_sawn().boards) board_m3 += b.volume_m3;
   print_boards(out.chosen_sawn(), out.chosen_value(), su.rules, cur, stdout);
@@ -309,7 +338,8 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
                   "log register (SQLite; default: $SAWYER_DB or ~/.local/share/sawyer/logs.sqlite)");
   cmd->add_flag("--no-register", c->no_register, "do not add the log to the register");
   cmd->add_flag("--no-report", c->no_report, "scan and saw only");
-  cmd->add_option("--threads", c->scan.threads, "worker threads (default: all cores)");
+  cmd->add_option("--threads", c->scan.threads, "worker threads, 1-256 (default: all cores)")
+      ->check(CLI::Range(1, 256));
   cmd->add_flag("-q,--quiet", c->quiet, "no progress on stderr");
   add_ct_options(cmd, c->scan.ct);
   cmd->callback([c, &run_out] {

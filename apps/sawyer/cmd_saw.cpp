@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <filesystem>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -13,6 +14,7 @@
 
 #include "log_source.h"
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/output_guard.h"
 #include "sawyer/sawing/sawing_job.h"
 
 namespace sawyer::app {
@@ -87,6 +89,8 @@ struct SawCli {
   bool quiet = false;
 };
 
+namespace fs = std::filesystem;
+
 int fail(const Error& e) {
   std::cerr << "sawyer: " << e.message() << "\n";
   return 1;
@@ -97,6 +101,13 @@ int run(const SawCli& c) {
   if (!model) return fail(model.error());
   Result<SawSetup> setup = load_saw_setup(c.names, c.o);
   if (!setup) return fail(setup.error());
+  // Never the log itself, a folder, a device or FIFO; a second `saw` to the same file refuses.
+  OutputRequest req{c.output, OutputKind::kFile, {c.input}, "-o"};
+  std::error_code ec;
+  for (const std::string* f : {&c.names.pattern, &c.names.grading, &c.names.prices})
+    if (!f->empty() && fs::exists(*f, ec)) req.inputs.emplace_back(*f);
+  Result<OutputLock> lock = OutputLock::acquire(req);
+  if (!lock) return fail(lock.error());
   const SawSetup& su = setup.value();
   const LogModel& log = model.value();
 
@@ -147,7 +158,8 @@ void add_saw_command(CLI::App& app, std::function<int()>& run_out) {
       ->capture_default_str();
   cmd->add_option("--position", c->names.position,
                   "the chosen position, reported beside the best: rot[,x[,y]] (degrees, mm, mm)");
-  cmd->add_option("--threads", o.threads, "worker threads (default: all cores)");
+  cmd->add_option("--threads", o.threads, "worker threads, 1-256 (default: all cores)")
+      ->check(CLI::Range(1, 256));
   cmd->add_flag("-q,--quiet", c->quiet, "no progress on stderr");
   cmd->callback([c, &run_out]() { run_out = [c]() { return run(*c); }; });
 }

@@ -7,6 +7,7 @@
 
 #include "scan_job.h"
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/output_guard.h"
 
 namespace sawyer::app {
 
@@ -24,6 +25,13 @@ int run_scan(const ScanCli& c) {
     std::cerr << "sawyer: " << e.message() << "\n";
     return 1;
   };
+  // The input is opened first (a bad scan is named before anything else), then the output is
+  // checked and locked, before the scan's real work.
+  auto source = open_scan(c.job);
+  if (!source) return fail(source.error());
+  Result<OutputLock> lock =
+      OutputLock::acquire({c.output, OutputKind::kScanFolder, {c.job.input}, "-o"});
+  if (!lock) return fail(lock.error());
   int next = 1;
   Result<ScanJob> job = scan_ct(c.job, [&](const char* stage, int done, int all) {
     if (std::string(stage) == "knots") {
@@ -34,13 +42,15 @@ int run_scan(const ScanCli& c) {
       std::cerr << "scan: " << next * 10 << "% (" << done << "/" << all << " slices)\n";
       ++next;
     }
-  });
+  }, std::move(source.value()));
   if (!job) return fail(job.error());
   Status st = write_dir_atomic(
       c.output, [&](const fs::path& tmp) { return write_scan_files(job.value(), c.job, tmp); });
   if (!st) return fail(st.error());
   std::printf("%s; wrote %s\n", scan_summary(job.value(), c.job.input).c_str(),
               c.output.c_str());
+  if (std::string z = ct::resampling_summary(job.value().source->geometry()); !z.empty())
+    std::printf("note: %s\n", z.c_str());
   return 0;
 }
 
@@ -55,7 +65,8 @@ void add_scan_command(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("-o,--output", c->output, "folder to write (log.json, maps/, maps_float/, qa/)")->required();
   cmd->add_option("--species", c->job.species, "species written into log.json")->capture_default_str();
   cmd->add_option("--id", c->job.id, "log id (default: the scan's folder name)");
-  cmd->add_option("--threads", c->job.threads, "worker threads (default: all cores)");
+  cmd->add_option("--threads", c->job.threads, "worker threads, 1-256 (default: all cores)")
+      ->check(CLI::Range(1, 256));
   cmd->add_option("--qa-slices", c->job.qa_slices, "how many slices to draw in qa/")
       ->capture_default_str();
   add_ct_options(cmd, c->job.ct);

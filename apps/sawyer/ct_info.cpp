@@ -2,26 +2,67 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <string>
 #include <vector>
 
 #include "ct_options.h"
+#include "sawyer/ct/limits.h"
 
 namespace sawyer::app {
+
+namespace {
+
+// A finite number within [lo, hi] (CLI::Range lets NaN through: every comparison with it is
+// false), and with |v| >= min_magnitude when that is set (a slope of 1e-300 is zero in effect).
+CLI::Validator finite_range(double lo, double hi, const std::string& unit,
+                            double min_magnitude = 0) {
+  const auto text = [](double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+  };
+  std::string range = text(lo) + " to " + text(hi) + unit;
+  if (min_magnitude > 0) range += ", at least " + text(min_magnitude) + " away from 0";
+  return CLI::Validator(
+      [=](std::string& in) -> std::string {
+        double v = 0;
+        try {
+          size_t used = 0;
+          v = std::stod(in, &used);
+          if (used != in.size()) return "must be a number (" + range + "), got " + in;
+        } catch (const std::exception&) {
+          return "must be a number (" + range + "), got " + in;
+        }
+        if (!std::isfinite(v) || v < lo || v > hi || std::abs(v) < min_magnitude)
+          return in + " is outside " + range;
+        return std::string();
+      },
+      "NUMBER in " + range);
+}
+
+}  // namespace
 
 void add_ct_options(CLI::App* cmd, CtCliOptions& o) {
   cmd->add_option("--series", o.series,
                   "DICOM: which series of a folder holding several (UID, UID prefix, or number)");
   cmd->add_option("--pixel-spacing", o.pixel_spacing, "image stacks: pixel size in mm")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_range(ct::kMinSpacingMm, ct::kMaxSpacingMm, " mm"));
   cmd->add_option("--slice-spacing", o.slice_spacing, "image stacks: distance between slices, mm")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--rescale-slope", o.rescale_slope, "image stacks: HU = slope * value + intercept");
-  cmd->add_option("--rescale-intercept", o.rescale_intercept, "image stacks: see --rescale-slope");
+      ->check(finite_range(ct::kMinSpacingMm, ct::kMaxSpacingMm, " mm"));
+  cmd->add_option("--rescale-slope", o.rescale_slope,
+                  "image stacks: HU = slope * value + intercept")
+      ->check(finite_range(-1e4, 1e4, "", 1e-4));
+  cmd->add_option("--rescale-intercept", o.rescale_intercept, "image stacks: see --rescale-slope")
+      ->check(finite_range(-1e5, 1e5, " HU"));
   cmd->add_flag("--strict-z", o.strict_z,
                 "refuse uneven slice spacing or missing slices instead of resampling along z");
+  cmd->add_flag("--allow-gaps", o.allow_gaps,
+                "resample along z even when more than 10 % of the slices would be invented or "
+                "one gap is wider than 50 mm (refused without it)");
 }
 
 ct::OpenOptions to_open_options(const CtCliOptions& o) {
@@ -32,6 +73,7 @@ ct::OpenOptions to_open_options(const CtCliOptions& o) {
   r.rescale_slope = o.rescale_slope;
   r.rescale_intercept = o.rescale_intercept;
   r.z_policy = o.strict_z ? ct::ZPolicy::kReject : ct::ZPolicy::kResample;
+  r.allow_gaps = o.allow_gaps;
   return r;
 }
 
@@ -141,6 +183,7 @@ Status print_ct_info(const std::filesystem::path& path, const ct::OpenOptions& o
     row("above -500 HU", fixed(100.0 * hist.fraction_above(-500), 1) +
                              " % of voxels (wood, bark and anything else dense)");
   }
+  if (const std::string z = ct::resampling_summary(g); !z.empty()) row("z grid", z);
   std::vector<std::string> problems = src.notes();
   if (nonfinite > 0)
     problems.push_back(std::to_string(nonfinite) + " voxels are NaN or infinite");

@@ -17,10 +17,13 @@ struct CtCliOptions {
   std::string series;
   std::optional<double> pixel_spacing, slice_spacing, rescale_slope, rescale_intercept;
   bool strict_z = false;
+  bool allow_gaps = false;
 };
 
-// Adds --series, --pixel-spacing, --slice-spacing, --rescale-slope, --rescale-intercept and
-// --strict-z to `cmd`, bound to `o`.
+// Adds --series, --pixel-spacing, --slice-spacing, --rescale-slope, --rescale-intercept,
+// --strict-z and --allow-gaps to `cmd`, bound to `o`. Spacings must be 0.01-50 mm (the readers'
+// limits, sawyer/ct/limits.h), the rescale slope non-zero within +-1e-4..1e4, the intercept
+// within +-1e5: every number finite.
 void add_ct_options(CLI::App* cmd, CtCliOptions& o);
 
 ct::OpenOptions to_open_options(const CtCliOptions& o);

@@ -31,6 +31,9 @@ Result<std::string> detect_log_source(const fs::path& path) {
     if (path.extension() == ".json") return std::string("log.json");
     return Error(path.string(), "not a log model (expected log.json or a folder of maps)");
   }
+  // A FIFO or a device would block or never end in a reader.
+  if (!fs::is_directory(path, ec))
+    return Error(path.string(), "is not a regular file or a folder (a FIFO, device or socket?)");
   if (fs::exists(path / "log.json", ec)) return std::string("log folder");
   if (fs::exists(path / "map_params.json", ec)) return std::string("published maps");
   if (fs::exists(path / "float_maps.json", ec)) return std::string("float maps");

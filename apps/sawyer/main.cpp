@@ -19,6 +19,8 @@
 #include "cmd_scan.h"
 #include "ct_options.h"
 #include "log_source.h"
+#include "sawyer/core/interrupt.h"
+#include "sawyer/core/output_guard.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/model/log_summary.h"
 #include "sawyer/maps/float_maps.h"
@@ -58,6 +60,9 @@ int cmd_convert(const std::string& input, const std::string& output, std::string
   Result<LogModel> log = app::load_log(input);
   if (!log) return fail(log.error());
   if (format.empty()) format = fs::path(output).extension() == ".json" ? "log" : "published";
+  Result<OutputLock> lock = OutputLock::acquire(
+      {output, format == "log" ? OutputKind::kFile : OutputKind::kMapsFolder, {input}, "-o"});
+  if (!lock) return fail(lock.error());
   Status st;
   if (format == "log") {
     st = write_log_json(log.value(), output);
@@ -88,6 +93,8 @@ int cmd_generate(const std::string& species, std::uint64_t seed, double length_m
   o.top_diameter_mm = top_mm;
   Status v = o.validate();
   if (!v) return fail(v.error());
+  Result<OutputLock> lock = OutputLock::acquire({output, OutputKind::kFile, {}, "-o"});
+  if (!lock) return fail(lock.error());
   Result<LogModel> log = generate_log(o);
   if (!log) return fail(log.error());
   Status st = write_log_json(log.value(), output);
@@ -100,6 +107,8 @@ int cmd_generate(const std::string& species, std::uint64_t seed, double length_m
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Ctrl-C or SIGTERM removes what is being written before the process ends (exit 130/143).
+  install_interrupt_cleanup();
   CLI::App app{"sawyer: CT scans of logs in, log models, virtual sawing and cutting reports out"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "sawyer 0.1.0");
@@ -161,7 +170,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; every command-line error is bad input (exit 1), whatever
+    // CLI11's own code for it.
+    return app.exit(e) == 0 ? kExitOk : kExitBadInput;
   }
 
   if (*info) return cmd_info(info_in, info_ct);

@@ -171,11 +171,19 @@ std::string knot_table(const ct::KnotScan& k) {
 
 }  // namespace
 
-Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress) {
-  auto opened = ct::open_ct(c.input, to_open_options(c.ct));
-  if (!opened) return opened.error();
+Result<std::unique_ptr<ct::SliceSource>> open_scan(const ScanJobOptions& c) {
+  return ct::open_ct(c.input, to_open_options(c.ct));
+}
+
+Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
+                        std::unique_ptr<ct::SliceSource> opened) {
+  if (!opened) {
+    auto o = open_scan(c);
+    if (!o) return o.error();
+    opened = std::move(o.value());
+  }
   ScanJob job;
-  job.source = std::move(opened.value());
+  job.source = std::move(opened);
   ct::SliceSource& src = *job.source;
   job.volume = std::make_unique<ct::LogVolume>(ct::LogVolume::empty_like(src.geometry()));
   ct::StemScanOptions o;

@@ -34,8 +34,13 @@ struct ScanJob {
 // (stage, done, total): "stem" per slice read and analysed, then "knots" 0/1 and 1/1.
 using ScanProgress = std::function<void(const char* stage, int done, int total)>;
 
-// Opens and analyses the scan. Errors name the input and the problem.
-Result<ScanJob> scan_ct(const ScanJobOptions& options, const ScanProgress& progress);
+// Opens the scan (headers only: format, geometry, the z grid). Errors name the input.
+Result<std::unique_ptr<ct::SliceSource>> open_scan(const ScanJobOptions& options);
+
+// Analyses the scan, opened by open_scan() (or here when `opened` is null). Errors name the
+// input and the problem.
+Result<ScanJob> scan_ct(const ScanJobOptions& options, const ScanProgress& progress,
+                        std::unique_ptr<ct::SliceSource> opened = nullptr);
 
 // Writes the scan folder's files into `dir` (an existing, empty folder): log.json, then
 // write_scan_extras().

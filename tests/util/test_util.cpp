@@ -64,10 +64,13 @@ int run_command(const std::string& command, std::string* output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-int run_sawyer(const std::string& args, std::string* output) {
+std::string sawyer_bin() {
   const char* env = std::getenv("SAWYER_BIN");
-  const char* bin = (env && *env) ? env : SAWYER_TEST_BIN;
-  return run_command(std::string("\"") + bin + "\" " + args, output);
+  return (env && *env) ? env : SAWYER_TEST_BIN;
+}
+
+int run_sawyer(const std::string& args, std::string* output) {
+  return run_command("\"" + sawyer_bin() + "\" " + args, output);
 }
 
 void write_file(const fs::path& path, const std::string& text) {

@@ -56,6 +56,7 @@
 #include <vector>
 
 #include "readers.h"
+#include "sawyer/ct/limits.h"
 
 namespace sawyer::ct::detail {
 
@@ -1396,6 +1397,11 @@ Result<std::unique_ptr<SliceSource>> build_source(const fs::path& folder, const 
       return Error(where, "Pixel Spacing " + in_quotes(h->spacing_text) + " is not two numbers");
     if (!((*sp)[0] > 0) || !((*sp)[1] > 0))
       return Error(where, "Pixel Spacing " + in_quotes(h->spacing_text) + " must be positive (mm)");
+    for (double v : *sp) {
+      if (Status st = check_spacing(where, "Pixel Spacing " + in_quotes(h->spacing_text) + ":", v);
+          !st)
+        return st.error();
+    }
     if (std::abs((*sp)[0] - (*ref_spacing)[0]) > 1e-4 * (*ref_spacing)[0] ||
         std::abs((*sp)[1] - (*ref_spacing)[1]) > 1e-4 * (*ref_spacing)[1])
       return Error(where, "Pixel Spacing " + in_quotes(h->spacing_text) + " differs from " +
@@ -1484,6 +1490,12 @@ Result<std::unique_ptr<SliceSource>> build_source(const fs::path& folder, const 
       return Error(folder_name, "duplicate slice position z=" + fmt(keyed[k].key - keyed[0].key) +
                                     " mm: " + keyed[k - 1].h->path.filename().string() + " and " +
                                     keyed[k].h->path.filename().string());
+    // Not a duplicate, but closer than any CT slices are: a corrupt position.
+    if (const double d = keyed[k].key - keyed[k - 1].key; d < kMinSpacingMm)
+      return Error(folder_name, keyed[k - 1].h->path.filename().string() + " and " +
+                                    keyed[k].h->path.filename().string() + " are " + fmt(d) +
+                                    " mm apart; slice spacing must be " + fmt(kMinSpacingMm, 2) +
+                                    "-" + fmt(kMaxSpacingMm, 0) + " mm");
   }
 
   // Per-file pixel data and rescale.

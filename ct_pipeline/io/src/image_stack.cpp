@@ -32,6 +32,7 @@
 
 #include "png_fast.h"
 #include "readers.h"
+#include "sawyer/ct/limits.h"
 #include "sidecar.h"
 
 namespace sawyer::ct::detail {
@@ -960,6 +961,7 @@ Status apply_file_list(StackLayout& s) {
 Status check_option(const std::optional<double>& v, const std::string& where, const char* flag) {
   if (v && !(*v > 0 && std::isfinite(*v)))
     return Error(where, std::string(flag) + " must be a positive number of mm, got " + num(*v));
+  if (v) return check_spacing(where, flag, *v);
   return Status::Ok();
 }
 
@@ -1196,6 +1198,10 @@ Result<std::unique_ptr<SliceSource>> open_stack(const fs::path& path, const Open
   }
   desc += ", " + size_text(layout) + ", " + layout_text(layout);
   src->description_ = desc;
+  // The sidecar checked its own keys; this holds the whole geometry (image size, field of view,
+  // ImageJ spacing) to the limits.
+  if (Status st = check_geometry_limits(where, g); !st)
+    return st.error();
   return std::unique_ptr<SliceSource>(std::move(src));
 }
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "readers.h"
+#include "sawyer/ct/limits.h"
 
 namespace sawyer::ct {
 
@@ -103,7 +104,17 @@ Result<std::unique_ptr<SliceSource>> open_raw(const fs::path& path, const OpenOp
 Result<std::unique_ptr<SliceSource>> open_ct(const fs::path& path, const OpenOptions& options) {
   auto raw = open_raw(path, options);
   if (!raw) return raw.error();
-  return make_uniform_z(std::move(raw).value(), options);
+  // Each reader checks its numbers where it reads them; this holds every format to the same
+  // limits once more, before anything is resampled or allocated from them.
+  const std::string where = path.string();
+  if (Status st = check_geometry_limits(where, raw.value()->geometry()); !st) return st.error();
+  auto uniform = detail::make_uniform_z(std::move(raw).value(), options, where);
+  if (!uniform) return uniform.error();
+  // The even grid may hold more slices than the files (missing ones filled in).
+  const VolumeGeometry& g = uniform.value()->geometry();
+  if (Status st = check_geometry_limits(where, g); !st) return st.error();
+  if (Status st = check_memory(where, g, options.memory_available_bytes); !st) return st.error();
+  return uniform;
 }
 
 Result<std::unique_ptr<SliceSink>> create_ct_writer(const fs::path& out,

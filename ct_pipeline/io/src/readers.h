@@ -32,6 +32,12 @@ Result<std::unique_ptr<SliceSource>> open_image_stack(const fs::path& path,
 Result<std::unique_ptr<SliceSource>> open_vtk_volume(const fs::path& file,
                                                      const OpenOptions& options);
 
+// uniform_z.cpp: make_uniform_z(), with the refusal of invented slices naming `file` (the path
+// open_ct was given) rather than the source's description; "" names the description.
+Result<std::unique_ptr<SliceSource>> make_uniform_z(std::unique_ptr<SliceSource> source,
+                                                    const OpenOptions& options,
+                                                    const std::string& file);
+
 // Writers, one per family.
 Result<std::unique_ptr<SliceSink>> create_dicom_writer(const fs::path& out,
                                                        const VolumeGeometry& geometry,

@@ -11,6 +11,8 @@
 #include <system_error>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/interrupt.h"
+#include "sawyer/ct/limits.h"
 
 namespace sawyer::ct::detail {
 
@@ -48,7 +50,35 @@ Result<double> positive_number(const Json& j, const std::string& where, const st
   const std::optional<double> v = finite_number(j);
   if (!v) return key_error(where, key, "must be a number in mm, got " + shown(j));
   if (!(*v > 0)) return key_error(where, key, "must be positive, got " + num(*v));
+  if (*v < kMinSpacingMm || *v > kMaxSpacingMm)
+    return key_error(where, key, num(*v) + " mm is outside " + num(kMinSpacingMm) + "-" +
+                                     num(kMaxSpacingMm) + " mm");
   return *v;
+}
+
+// Positions must increase, no closer than the smallest slice spacing and within a log's length
+// of each other: the reader builds its z grid (and the resampler its slice count) from them.
+Status check_z_mm(const std::vector<double>& z, const std::string& where) {
+  const char* key = "z_mm";
+  for (size_t i = 1; i < z.size(); ++i) {
+    if (!(z[i] > z[i - 1])) {
+      return key_error(where, key,
+                       "must increase strictly, but element " + std::to_string(i) + " (" +
+                           num(z[i]) + ") follows " + num(z[i - 1]));
+    }
+    if (z[i] - z[i - 1] < kMinSpacingMm) {
+      return key_error(where, key,
+                       "elements " + std::to_string(i - 1) + " and " + std::to_string(i) + " are " +
+                           num(z[i] - z[i - 1]) + " mm apart; slice spacing must be " +
+                           num(kMinSpacingMm) + "-" + num(kMaxSpacingMm) + " mm");
+    }
+  }
+  if (!z.empty() && z.back() - z.front() > kMaxZExtentMm) {
+    return key_error(where, key,
+                     "spans " + num(z.back() - z.front()) + " mm (" + num(z.front()) + " to " +
+                         num(z.back()) + "), more than " + num(kMaxZExtentMm) + " mm");
+  }
+  return Status::Ok();
 }
 
 Result<std::vector<double>> number_array(const Json& j, const std::string& where,
@@ -164,13 +194,7 @@ Result<StackSidecar> parse_stack_sidecar(const std::string& text, const std::str
           st = v.error();
         } else {
           sc.z_mm = std::move(v).value();
-          for (size_t i = 1; i < sc.z_mm.size() && st; ++i) {
-            if (!(sc.z_mm[i] > sc.z_mm[i - 1])) {
-              st = key_error(where, key,
-                             "must increase strictly, but element " + std::to_string(i) + " (" +
-                                 num(sc.z_mm[i]) + ") follows " + num(sc.z_mm[i - 1]));
-            }
-          }
+          st = check_z_mm(sc.z_mm, where);
         }
       } else if (key == "rescale_slope") {
         const std::optional<double> v = finite_number(value);
@@ -249,7 +273,10 @@ Result<StagingDir> StagingDir::create(const fs::path& out) {
     std::ostringstream name;
     name << "." << out.filename().string() << ".tmp" << std::hex << rng();
     const fs::path tmp = parent / name.str();
-    if (fs::create_directory(tmp, ec)) return StagingDir(out, tmp);
+    if (fs::create_directory(tmp, ec)) {
+      track_temp_path(tmp);  // removed if the process is interrupted (interrupt.h)
+      return StagingDir(out, tmp);
+    }
     if (ec) return Error(out.string(), "cannot create a temporary folder: " + ec.message());
   }
   return Error(out.string(), "cannot create a temporary folder");
@@ -264,6 +291,7 @@ StagingDir::~StagingDir() {
   if (tmp_.empty()) return;
   std::error_code ec;
   fs::remove_all(tmp_, ec);
+  untrack_temp_path(tmp_);
 }
 
 Status StagingDir::commit() {
@@ -286,6 +314,7 @@ Status StagingDir::commit() {
     if (ec)
       return Error(out_.string(), "cannot move the written folder into place: " + ec.message());
   }
+  untrack_temp_path(tmp_);
   tmp_.clear();
   return Status::Ok();
 }

@@ -6,7 +6,10 @@
 //  - duplicate or backwards positions (|dz| < 1e-3 mm) are always an error;
 //  - every gap within 1% of the median spacing: pass through, z snapped to i * spacing;
 //  - otherwise kReject lists the uneven gaps, and kResample interpolates linearly along z onto
-//    an even grid at the median spacing, keeping only the two bracketing source slices.
+//    an even grid at the median spacing, keeping only the two bracketing source slices;
+//  - but kResample refuses, unless allow_gaps, to invent more than max_invented_fraction of the
+//    output slices or to fill a gap wider than max_gap_mm (limits.h says why 10 % and 50 mm).
+//    What it did is in geometry().z_resampling, and resampling_summary() says it in one line.
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -14,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "readers.h"
 #include "sawyer/ct/slice_source.h"
 
 namespace sawyer::ct {
@@ -66,11 +70,12 @@ class SnappedSource final : public SliceSource {
 class ResampledSource final : public SliceSource {
  public:
   ResampledSource(std::unique_ptr<SliceSource> src, double spacing, int count,
-                  std::vector<std::string> extra_notes)
+                  std::vector<std::string> extra_notes, const ZResampling& info)
       : src_(std::move(src)),
         geometry_(src_->geometry()),
         source_z_(src_->geometry().z),
         notes_(src_->notes()) {
+    geometry_.z_resampling = info;
     geometry_.z.resize(static_cast<size_t>(count));
     for (int k = 0; k < count; ++k) geometry_.z[static_cast<size_t>(k)] = k * spacing;
     for (auto& n : extra_notes) notes_.push_back(std::move(n));
@@ -161,19 +166,55 @@ struct Gap {
   int missing;    // slices missing (0: uneven but not a missing slice)
 };
 
+// Interpolating across a few missing slices is harmless; inventing a large share of the log, or
+// filling one gap a knot whorl fits in, makes up wood nobody scanned. Both need allow_gaps.
+// One invented slice alone is always accepted (a scanner drops one now and then, and in a short
+// section that one alone can be more than 10 %), as long as its gap is not too wide.
+Status check_invented(const std::string& where, const ZResampling& info, int count,
+                      double median, const OpenOptions& options) {
+  if (options.allow_gaps || info.invented_slices == 0) return Status::Ok();
+  const double fraction = static_cast<double>(info.invented_slices) / count;
+  const bool too_many = info.invented_slices > 1 && fraction > options.max_invented_fraction;
+  if (!too_many && info.widest_gap_mm <= options.max_gap_mm) return Status::Ok();
+  const int dec = decimals_for(median);
+  return Error(where, "slices missing along z: resampling would invent " +
+                          std::to_string(info.invented_slices) + " of " + std::to_string(count) +
+                          " slices (" + mm(100.0 * fraction, 1) + " %, limit " +
+                          mm(100.0 * options.max_invented_fraction, 0) + " %) in " +
+                          std::to_string(info.gaps) + " gap" + (info.gaps == 1 ? "" : "s") +
+                          ", widest z=" + mm(info.widest_gap_z0, dec) + ".." +
+                          mm(info.widest_gap_z0 + info.widest_gap_mm, dec) + " mm (" +
+                          mm(info.widest_gap_mm, dec) + " mm, limit " +
+                          mm(options.max_gap_mm, 0) + " mm); --allow-gaps resamples anyway");
+}
+
 }  // namespace
 
 Result<std::unique_ptr<SliceSource>> make_uniform_z(std::unique_ptr<SliceSource> source,
                                                     const OpenOptions& options) {
+  return detail::make_uniform_z(std::move(source), options, "");
+}
+
+Result<std::unique_ptr<SliceSource>> detail::make_uniform_z(std::unique_ptr<SliceSource> source,
+                                                            const OpenOptions& options,
+                                                            const std::string& file) {
   assert(source);
   const VolumeGeometry& g = source->geometry();
   const std::vector<double>& z = g.z;
   const int n = g.slice_count();
   if (n < 2) return source;
-  const std::string where = source->description();
+  // Messages name the path the user gave (the series description alone does not say which
+  // folder); a source made without one is named by its description.
+  const std::string where = file.empty() ? source->description() : file;
   if (!(options.gap_tolerance > 1.0))
     return Error(where, "gap tolerance must be more than 1 median spacing, got " +
                             mm(options.gap_tolerance, 2));
+  if (!(options.max_invented_fraction >= 0 && options.max_invented_fraction <= 1))
+    return Error(where, "the share of invented slices allowed must be 0-1, got " +
+                            mm(options.max_invented_fraction, 3));
+  if (!(options.max_gap_mm > 0) || !std::isfinite(options.max_gap_mm))
+    return Error(where, "the widest gap allowed must be a positive number of mm, got " +
+                            mm(options.max_gap_mm, 1));
 
   for (double v : z) {
     if (!std::isfinite(v) || std::abs(v) > 1e9)
@@ -282,8 +323,39 @@ Result<std::unique_ptr<SliceSource>> make_uniform_z(std::unique_ptr<SliceSource>
                             " slices would need " + mm(grid, 0) +
                             " output slices (positions corrupt?)");
   const int count = static_cast<int>(grid);
+
+  ZResampling info;
+  info.resampled = true;
+  info.source_slices = n;
+  for (const Gap& gap : gaps) {
+    if (gap.missing == 0) continue;
+    info.invented_slices += gap.missing;
+    ++info.gaps;
+    if (gap.z1 - gap.z0 > info.widest_gap_mm) {
+      info.widest_gap_mm = gap.z1 - gap.z0;
+      info.widest_gap_z0 = gap.z0;
+    }
+  }
+  if (Status st = check_invented(where, info, count, median, options); !st)
+    return st.error();
   return std::unique_ptr<SliceSource>(
-      new ResampledSource(std::move(source), median, count, std::move(notes)));
+      new ResampledSource(std::move(source), median, count, std::move(notes), info));
+}
+
+std::string resampling_summary(const VolumeGeometry& g) {
+  const ZResampling& r = g.z_resampling;
+  if (!r.resampled) return "";
+  const double spacing = g.slice_spacing();
+  const int dec = decimals_for(spacing);
+  std::string s = "resampled along z: " + std::to_string(r.source_slices) +
+                  " slices in the files, " + std::to_string(g.slice_count()) + " out at " +
+                  mm(spacing, dec) + " mm; ";
+  if (r.invented_slices == 0) return s + "uneven spacing interpolated, no slice invented";
+  return s + std::to_string(r.invented_slices) + " invented (" +
+         mm(100.0 * r.invented_slices / std::max(1, g.slice_count()), 1) + " %) in " +
+         std::to_string(r.gaps) + " gap" + (r.gaps == 1 ? "" : "s") + ", widest " +
+         mm(r.widest_gap_mm, dec) + " mm at z=" + mm(r.widest_gap_z0, dec) + ".." +
+         mm(r.widest_gap_z0 + r.widest_gap_mm, dec) + " mm";
 }
 
 }  // namespace sawyer::ct

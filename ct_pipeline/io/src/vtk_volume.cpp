@@ -49,6 +49,7 @@
 #include <system_error>
 
 #include "readers.h"
+#include "sawyer/ct/limits.h"
 #include "sidecar.h"
 
 namespace sawyer::ct::detail {
@@ -216,6 +217,11 @@ Status check_spacing(const Header& h, const std::string& where, const char* key)
     if (!(s > 0) || !std::isfinite(s))
       return Error(where, std::string(key) + " must be positive, got " + num(h.spacing[0]) + " " +
                               num(h.spacing[1]) + " " + num(h.spacing[2]));
+  }
+  const std::string what = std::string(key) + " " + num(h.spacing[0]) + " " + num(h.spacing[1]) +
+                           " " + num(h.spacing[2]) + ":";
+  for (double s : h.spacing) {
+    if (Status st = ct::check_spacing(where, what, s); !st) return st;
   }
   return Status::Ok();
 }
@@ -835,6 +841,23 @@ std::string xml_attribute(const std::string& xml, size_t tag, const std::string&
   return xml.substr(from, close - from);
 }
 
+// VTK's XML reader keeps its default (spacing 1, origin 0) for an attribute it cannot parse, so
+// "1.6 1.6 nan" would read as 1 mm: the ImageData element's own text must hold finite numbers.
+Status check_vti_numbers(const std::string& xml, const std::string& where) {
+  const size_t tag = xml.find("<ImageData");
+  if (tag == std::string::npos) return Status::Ok();  // VTK reported what is missing already
+  for (const char* name : {"Spacing", "Origin", "Direction"}) {
+    const size_t want = std::string(name) == "Direction" ? 9 : 3;
+    const std::string text = xml_attribute(xml, tag, name);
+    if (text.empty()) continue;  // absent: VTK's default, as documented
+    std::vector<double> v;
+    if (!parse_numbers(text, v) || v.size() != want)
+      return Error(where, std::string(name) + " \"" + text + "\" is not " +
+                              std::to_string(want) + " finite numbers");
+  }
+  return Status::Ok();
+}
+
 // Decodes base64 (stops at the first character outside the alphabet).
 std::string base64_decode(const std::string& text, size_t max_bytes) {
   auto value = [](char c) -> int {
@@ -996,6 +1019,7 @@ Status open_vti(const fs::path& file, VtkVolumeSource& src, Header& h) {
     const size_t appended = xml.value().find("<AppendedData");
     const std::string head_xml = xml.value().substr(0, appended);
     if (Status st = check_vti_pieces(head_xml, src.extent_, where); !st) return st;
+    if (Status st = check_vti_numbers(head_xml, where); !st) return st;
     if (h.compressed) {
       Result<uint64_t> bytes = file_size(file, where);
       if (!bytes) return bytes.error();
@@ -1128,6 +1152,8 @@ Result<std::unique_ptr<SliceSource>> open_volume(const fs::path& file, const Ope
   g.orientation = {h.axis[0].x, h.axis[0].y, h.axis[0].z, h.axis[1].x, h.axis[1].y, h.axis[1].z};
   if (std::abs(dot(h.axis[0], h.axis[1])) > 1e-3)
     src->notes_.push_back("row and column directions are not perpendicular");
+  // Before the first slice is read: sizes, field of view, extent and origin within the limits.
+  if (Status st = check_geometry_limits(where, g); !st) return st.error();
 
   // The scalar type: from the header, or (.vti) from reading the first slice.
   Slice probe;

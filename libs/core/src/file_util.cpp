@@ -1,9 +1,17 @@
 #include "sawyer/core/file_util.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <sstream>
 #include <system_error>
+
+#include "sawyer/core/interrupt.h"
 
 namespace sawyer {
 namespace fs = std::filesystem;
@@ -17,18 +25,80 @@ fs::path temp_sibling(const fs::path& path) {
   return path.parent_path() / name.str();
 }
 
+// Closes the descriptor on every return path.
+struct Fd {
+  int fd = -1;
+  ~Fd() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+const char* kind_of(mode_t mode) {
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode) || S_ISBLK(mode)) return "a device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
 }  // namespace
 
-Result<std::string> read_text_file(const fs::path& path) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) return Error(path.string(), "no such file");
-  if (fs::is_directory(path, ec)) return Error(path.string(), "is a folder, expected a file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Error(path.string(), "cannot open for reading");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) return Error(path.string(), "read failed");
-  return ss.str();
+std::string byte_size_text(std::uintmax_t bytes) {
+  std::ostringstream os;
+  if (bytes >= (1u << 20) && bytes % (1u << 20) == 0)
+    os << bytes / (1u << 20) << " MiB";
+  else if (bytes >= (1u << 20))
+    os << static_cast<double>(bytes) / (1u << 20) << " MiB";
+  else if (bytes >= 1024)
+    os << static_cast<double>(bytes) / 1024 << " KiB";
+  else
+    os << bytes << " bytes";
+  return os.str();
+}
+
+Result<std::string> read_text_file(const fs::path& path, std::uintmax_t max_bytes) {
+  const std::string name = path.string();
+  // stat() first, so that a device or FIFO is never even opened; the same checks on the open
+  // descriptor below catch a file swapped in between.
+  struct stat st {};
+  if (::stat(name.c_str(), &st) != 0) {
+    if (errno == ENOENT || errno == ENOTDIR) return Error(name, "no such file");
+    return Error(name, std::string("cannot read: ") + std::strerror(errno));
+  }
+  if (S_ISDIR(st.st_mode)) return Error(name, "is a folder, expected a file");
+  auto check = [&](const struct stat& s) -> Status {
+    if (!S_ISREG(s.st_mode))
+      return Error(name, std::string("is ") + kind_of(s.st_mode) + ", expected a regular file");
+    if (static_cast<std::uintmax_t>(s.st_size) > max_bytes)
+      return Error(name, "is " + std::to_string(s.st_size) + " bytes, more than the " +
+                             byte_size_text(max_bytes) + " allowed for this file");
+    return Status::Ok();
+  };
+  if (Status s = check(st); !s) return s.error();
+  // O_NONBLOCK: opening a FIFO that replaced the file would otherwise wait for a writer.
+  Fd f{::open(name.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC)};
+  if (f.fd < 0) return Error(name, std::string("cannot open for reading: ") + std::strerror(errno));
+  if (::fstat(f.fd, &st) != 0)
+    return Error(name, "cannot read: " + std::string(std::strerror(errno)));
+  if (Status s = check(st); !s) return s.error();
+  std::string text;
+  text.resize(static_cast<size_t>(st.st_size));
+  size_t got = 0;
+  // One byte past the stated size tells a file that grows while it is read.
+  while (true) {
+    if (got == text.size()) {
+      if (text.size() > max_bytes)
+        return Error(name, "grew past " + byte_size_text(max_bytes) + " while read");
+      text.resize(text.size() + 1 + text.size() / 2);
+    }
+    const ssize_t n = ::read(f.fd, text.data() + got, text.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return Error(name, std::string("read failed: ") + std::strerror(errno));
+    if (n == 0) break;
+    got += static_cast<size_t>(n);
+  }
+  if (got > max_bytes) return Error(name, "grew past " + byte_size_text(max_bytes) + " while read");
+  text.resize(got);
+  return text;
 }
 
 Status write_file_atomic(const fs::path& path,
@@ -39,6 +109,7 @@ Status write_file_atomic(const fs::path& path,
     if (ec) return Error(path.parent_path().string(), "cannot create folder: " + ec.message());
   }
   const fs::path tmp = temp_sibling(path);
+  TrackedTemp tracked(tmp);
   Status st = write_to(tmp);
   if (!st) {
     fs::remove(tmp, ec);
@@ -69,6 +140,7 @@ Status write_dir_atomic(const fs::path& dir, const std::function<Status(const fs
   fs::create_directories(parent, ec);
   if (ec) return Error(parent.string(), "cannot create folder: " + ec.message());
   const fs::path tmp = temp_sibling(dir);
+  TrackedTemp tracked(tmp);
   fs::create_directories(tmp, ec);
   if (ec) return Error(dir.string(), "cannot create a temporary folder: " + ec.message());
   Status st = fill(tmp);

@@ -200,11 +200,17 @@ Result<LogModel> import_float_maps(const fs::path& dir) {
   if (!(dz.value() > 0)) return r.error("dz_mm", "must be positive");
   s.z0_mm = z0.value();
   s.dz_mm = dz.value();
-  Result<int> n_angles = count_at(r, "n_angles", 3, 1 << 20);
+  // The counts size the grids allocated below: the log model's limits, checked before the images
+  // are read.
+  Result<int> n_angles = count_at(r, "n_angles", log_limits::kMinAngles, log_limits::kMaxAngles);
   if (!n_angles) return n_angles.error();
-  Result<int> n_slices = count_at(r, "n_slices", 1, 1 << 24);
+  Result<int> n_slices = count_at(r, "n_slices", 1, log_limits::kMaxSlices);
   if (!n_slices) return n_slices.error();
-  Result<int> n_knots = count_at(r, "n_knots", 0, 1 << 24);
+  if (static_cast<long long>(n_angles.value()) * n_slices.value() > log_limits::kMaxStemValues)
+    return r.error("n_slices", std::to_string(n_slices.value()) + " × n_angles " +
+                                   std::to_string(n_angles.value()) + " radii, more than the " +
+                                   std::to_string(log_limits::kMaxStemValues) + " allowed");
+  Result<int> n_knots = count_at(r, "n_knots", 0, log_limits::kMaxKnots);
   if (!n_knots) return n_knots.error();
   Result<bool> has_hw = r.boolean("has_heartwood");
   if (!has_hw) return has_hw.error();

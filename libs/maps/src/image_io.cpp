@@ -41,6 +41,9 @@ Status check_input_file(const fs::path& path, const char* kind) {
   if (ec || !fs::exists(st)) return Error(path.string(), "no such file");
   if (fs::is_directory(st))
     return Error(path.string(), std::string("is a folder, expected ") + kind);
+  // A FIFO would block the image reader and a device never ends.
+  if (!fs::is_regular_file(st))
+    return Error(path.string(), std::string("is not a regular file, expected ") + kind);
   return Status::Ok();
 }
 

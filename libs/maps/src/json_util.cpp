@@ -8,8 +8,12 @@
 namespace sawyer::maps_detail {
 namespace fs = std::filesystem;
 
+// Map headers are a few kB; 16 MiB leaves room for any hand-edited or annotated one and keeps a
+// FIFO, a device or a stray huge file from being read.
+constexpr std::uintmax_t kMaxJsonBytes = std::uintmax_t{16} << 20;
+
 Result<Json> read_json_file(const fs::path& path) {
-  Result<std::string> text = read_text_file(path);
+  Result<std::string> text = read_text_file(path, kMaxJsonBytes);
   if (!text) return text.error();
   try {
     return Json::parse(text.value());

@@ -174,8 +174,10 @@ Result<Sidecar> read_sidecar(const fs::path& path) {
   s.pith_mid = {mid.value()[0], mid.value()[1]};
   Result<long long> na = r.integer("n_angles");
   if (!na) return na.error();
-  if (na.value() < 3 || na.value() > 100000)
-    return r.error("n_angles", "must be between 3 and 100000, found " + std::to_string(na.value()));
+  if (na.value() < log_limits::kMinAngles || na.value() > log_limits::kMaxAngles)
+    return r.error("n_angles", "must be between " + std::to_string(log_limits::kMinAngles) +
+                                   " and " + std::to_string(log_limits::kMaxAngles) + ", found " +
+                                   std::to_string(na.value()));
   s.n_angles = static_cast<int>(na.value());
   for (auto [key, dst] : {std::pair{"stem_columns", &s.stem_columns},
                           {"stem_rows", &s.stem_rows},
@@ -536,6 +538,16 @@ Result<LogModel> import_published_maps(const fs::path& dir, PublishedMapImportSu
   if (pm.width < 3)
     return Error(pith_path.string(),
                  "expected at least 3 columns, found " + std::to_string(pm.width));
+  // One stem sample per row, n_angles radii each: the log model's limits before the rows are
+  // resampled into it.
+  const int n_angles = side ? side->n_angles : kDefaultAngles;
+  if (pm.height > log_limits::kMaxSlices ||
+      static_cast<long long>(pm.height) * n_angles > log_limits::kMaxStemValues)
+    return Error(pith_path.string(), std::to_string(pm.height) + " rows × " +
+                                         std::to_string(n_angles) +
+                                         " angles, more than the log model allows (" +
+                                         std::to_string(log_limits::kMaxSlices) + " rows, " +
+                                         std::to_string(log_limits::kMaxStemValues) + " radii)");
 
   LogModel log;
   log.id = side ? side->id : default_log_id(dir);

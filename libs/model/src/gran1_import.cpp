@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/model/log_json.h"
 
 namespace sawyer {
 namespace {
@@ -13,12 +14,15 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 Result<Json> parse_file(const fs::path& path) {
-  Result<std::string> text = read_text_file(path);
+  Result<std::string> text = read_text_file(path, log_limits::kMaxFileBytes);
   if (!text) return text.error();
   try {
     return Json::parse(text.value());
   } catch (const nlohmann::json::parse_error&) {
     return Error(path.string(), "malformed JSON");
+  } catch (const nlohmann::json::exception&) {
+    // out_of_range: a number such as 1e999 that does not fit a double.
+    return Error(path.string(), "malformed JSON (a number out of range)");
   }
 }
 
@@ -112,6 +116,9 @@ Result<LogModel> import_gran1(const fs::path& folder, const std::string& name) {
     return Error(radii_path.string(), "expected " + std::to_string(s.pith.size()) +
                                           " rows, one per pith row");
   s.n_angles = 360;
+  if (radii.size() > static_cast<size_t>(log_limits::kMaxSlices))
+    return Error(radii_path.string(), std::to_string(radii.size()) + " rows, more than the " +
+                                          std::to_string(log_limits::kMaxSlices) + " allowed");
   double rmin = 1e300;
   for (size_t i = 0; i < radii.size(); ++i) {
     Result<std::vector<double>> row = numeric_row(radii, i, 360, radii_path, "row");
@@ -125,6 +132,8 @@ Result<LogModel> import_gran1(const fs::path& folder, const std::string& name) {
     }
     s.radius.push_back(std::move(ours));
   }
+  // The stem's numbers in range before the knots use them (the slice lookup below divides by dz).
+  if (Status st = validate(log); !st) return st.error().with_context(folder.string());
 
   // Knots: [A, B, C, D, E, F, G, H, I].
   const Json& knots = kj.value();
@@ -144,12 +153,17 @@ Result<LogModel> import_gran1(const fs::path& folder, const std::string& name) {
     k.r_dead = v[8];
     if (!(k.r_end > 0))
       return Error(knots_path.string() + ": knot " + std::to_string(i), "end distance H must be positive");
+    if (std::abs(k.z0) > log_limits::kMaxAbsZMm)
+      return Error(knots_path.string() + ": knot " + std::to_string(i),
+                   "height C = " + std::to_string(k.z0) + " mm is outside ±" +
+                       std::to_string(static_cast<int>(log_limits::kMaxAbsZMm)) + " mm");
     // Local stem radius at the knot's base height for the paper's growth rule.
     const int slice = std::clamp(static_cast<int>(std::lround((k.z0 - s.z0_mm) / s.dz_mm)), 0,
                                  s.slice_count() - 1);
     k.diameter = fit_paper_diameter(k.r_dead, s.mean_radius(slice), rmin);
     log.knots.push_back(k);
   }
+  if (Status st = validate(log); !st) return st.error().with_context(folder.string());
   return log;
 }
 

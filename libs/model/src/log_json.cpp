@@ -1,6 +1,8 @@
 #include "sawyer/model/log_json.h"
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -10,6 +12,27 @@ namespace sawyer {
 namespace {
 
 using Json = nlohmann::ordered_json;
+namespace lim = log_limits;
+
+// A number for messages: "1e+12", "0.25".
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+// "<value> mm is outside <lo>-<hi> mm" (or "<lo> to <hi>" when lo is negative).
+std::string outside(double v, double lo, double hi, const char* unit) {
+  const std::string u = *unit ? std::string(" ") + unit : std::string();
+  return num(v) + u + " is outside " + num(lo) + (lo < 0 ? " to " : "-") + num(hi) + u;
+}
+
+// The first value of `v` outside [lo, hi] (or not finite), as an error naming `where`.
+Status check_range(double v, const std::string& where, double lo, double hi, const char* unit) {
+  if (!std::isfinite(v)) return Error(where, "not a finite number");
+  if (v < lo || v > hi) return Error(where, outside(v, lo, hi, unit));
+  return Status::Ok();
+}
 
 // ---- writing ---------------------------------------------------------------------------------
 
@@ -41,6 +64,19 @@ Result<double> number_at(const Json& obj, const std::string& path, const char* k
   const double d = v.get<double>();
   if (!std::isfinite(d)) return Error(path + key, "not a finite number");
   return d;
+}
+
+// A JSON integer within [lo, hi], checked before it is narrowed (a huge integer would wrap).
+Result<int> int_in_range(const Json& v, const std::string& where, long long lo, long long hi) {
+  if (!v.is_number_integer())
+    return Error(where, std::string("expected an integer, got ") + type_name(v));
+  const bool too_big =
+      v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi);
+  const long long x = too_big ? hi + 1 : v.get<long long>();
+  if (too_big || x < lo || x > hi)
+    return Error(where, (too_big ? v.dump() : std::to_string(x)) + " is outside " +
+                            std::to_string(lo) + "-" + std::to_string(hi));
+  return static_cast<int>(x);
 }
 
 Result<std::string> string_at(const Json& obj, const std::string& path, const char* key,
@@ -102,6 +138,9 @@ Result<Stem> parse_stem(const Json& j) {
   if (!pith) return pith.error();
   const Json& pj = *pith.value();
   if (!pj.is_array()) return Error("stem.pith", std::string("expected an array of [x, y], got ") + type_name(pj));
+  if (pj.size() > static_cast<size_t>(lim::kMaxSlices))
+    return Error("stem.pith", "has " + std::to_string(pj.size()) + " samples, more than the " +
+                                  std::to_string(lim::kMaxSlices) + " allowed");
   for (size_t i = 0; i < pj.size(); ++i) {
     const std::string w = "stem.pith[" + std::to_string(i) + "]";
     Result<std::vector<double>> xy = number_list(pj[i], w);
@@ -116,13 +155,18 @@ Result<Stem> parse_stem(const Json& j) {
   Result<const Json*> na = member(j, p, "n_angles", false);
   if (!na) return na.error();
   if (na.value()) {
-    if (!na.value()->is_number_integer())
-      return Error("stem.n_angles", std::string("expected an integer, got ") + type_name(*na.value()));
-    s.n_angles = na.value()->get<int>();
+    Result<int> n = int_in_range(*na.value(), "stem.n_angles", std::numeric_limits<int>::min(),
+                                 std::numeric_limits<int>::max());
+    if (!n) return n.error();
+    s.n_angles = n.value();
   } else if (rj.is_array() && !rj.empty() && rj[0].is_array()) {
     s.n_angles = static_cast<int>(rj[0].size());
   }
   if (s.n_angles < 3) return Error("stem.n_angles", "must be at least 3");
+  if (s.n_angles > lim::kMaxAngles)
+    return Error("stem.n_angles", std::to_string(s.n_angles) + " is outside " +
+                                      std::to_string(lim::kMinAngles) + "-" +
+                                      std::to_string(lim::kMaxAngles));
   Result<std::vector<std::vector<double>>> rad = rows_at(rj, "stem.radius", s.pith.size(), s.n_angles);
   if (!rad) return rad.error();
   s.radius = std::move(rad).value();
@@ -155,7 +199,10 @@ Result<Knot> parse_knot(const Json& j, size_t index) {
   if (!id) return id.error();
   if (id.value()) {
     if (!id.value()->is_number_integer()) return Error(p + "id", "expected an integer");
-    k.id = id.value()->get<int>();
+    Result<int> v = int_in_range(*id.value(), p + "id", std::numeric_limits<int>::min(),
+                                 std::numeric_limits<int>::max());
+    if (!v) return v.error();
+    k.id = v.value();
   }
   struct Field {
     const char* key;
@@ -178,7 +225,9 @@ Result<Knot> parse_knot(const Json& j, size_t index) {
   }
   if (j.contains("support")) {
     if (!j["support"].is_number_integer()) return Error(p + "support", "expected an integer");
-    k.support = j["support"].get<int>();
+    Result<int> v = int_in_range(j["support"], p + "support", 0, std::numeric_limits<int>::max());
+    if (!v) return v.error();
+    k.support = v.value();
   }
   return k;
 }
@@ -258,17 +307,55 @@ std::string log_to_json(const LogModel& log) {
   return os.str();
 }
 
+namespace {
+
+// The 1-based line of byte offset `byte` (nlohmann counts bytes from 1).
+std::string line_of(const std::string& text, size_t byte) {
+  size_t line = 1;
+  for (size_t i = 0; i + 1 < byte && i < text.size(); ++i)
+    if (text[i] == '\n') ++line;
+  return "line " + std::to_string(line);
+}
+
+// nlohmann reports a number too large for a double ("number overflow parsing '1e999'") without
+// its offset: the line is found from the token it quotes.
+Error overflow_error(const std::string& text, const std::string& what) {
+  const size_t a = what.find('\''), b = what.rfind('\'');
+  const std::string token = a != std::string::npos && b > a ? what.substr(a + 1, b - a - 1) : "";
+  const size_t at = token.empty() ? std::string::npos : text.find(token);
+  const std::string where = at == std::string::npos ? "JSON" : line_of(text, at + 1);
+  return Error(where, "the number " + (token.empty() ? std::string() : token + " ") +
+                          "does not fit a double");
+}
+
+Result<LogModel> model_from_json(const Json& j);
+
+}  // namespace
+
 Result<LogModel> log_from_json(const std::string& text) {
   Json j;
   try {
     j = Json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     // e.byte is the 1-based offset of the problem.
-    size_t line = 1;
-    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i)
-      if (text[i] == '\n') ++line;
-    return Error("line " + std::to_string(line), "malformed JSON");
+    return Error(line_of(text, e.byte), "malformed JSON");
+  } catch (const nlohmann::json::out_of_range& e) {
+    return overflow_error(text, e.what());
+  } catch (const nlohmann::json::exception& e) {
+    return Error("JSON", std::string("not readable: ") + e.what());
   }
+  // The accessors check types before they convert; this is the net under them, so that no
+  // document can end a command with an uncaught exception.
+  try {
+    return model_from_json(j);
+  } catch (const nlohmann::json::exception& e) {
+    return Error("JSON", std::string("not readable: ") + e.what());
+  }
+}
+
+namespace {
+
+Result<LogModel> model_from_json(const Json& j) {
   if (!j.is_object()) return Error("top level", "expected a JSON object");
   Result<std::string> fmt = string_at(j, "", "format", true);
   if (!fmt) return fmt.error();
@@ -289,6 +376,10 @@ Result<LogModel> log_from_json(const std::string& text) {
   Result<const Json*> knots = member(j, "", "knots");
   if (!knots) return knots.error();
   if (!knots.value()->is_array()) return Error("knots", "expected an array");
+  if (knots.value()->size() > static_cast<size_t>(lim::kMaxKnots))
+    return Error("knots", "has " + std::to_string(knots.value()->size()) +
+                              " knots, more than the " + std::to_string(lim::kMaxKnots) +
+                              " allowed");
   for (size_t i = 0; i < knots.value()->size(); ++i) {
     Result<Knot> k = parse_knot((*knots.value())[i], i);
     if (!k) return k.error();
@@ -299,46 +390,131 @@ Result<LogModel> log_from_json(const std::string& text) {
   return log;
 }
 
-Status validate(const LogModel& log) {
-  const Stem& s = log.stem;
+}  // namespace
+
+namespace {
+
+std::string at(const std::string& key, size_t i) { return key + "[" + std::to_string(i) + "]"; }
+std::string at(const std::string& key, size_t i, size_t k) { return at(at(key, i), k); }
+
+// Sample counts first: they bound every loop below and every grid a user of the model allocates.
+Status validate_extent(const Stem& s) {
   if (!(s.dz_mm > 0)) return Error("stem.dz_mm", "must be positive");
+  if (Status st = check_range(s.dz_mm, "stem.dz_mm", lim::kMinDzMm, lim::kMaxDzMm, "mm"); !st)
+    return st;
+  if (Status st = check_range(s.z0_mm, "stem.z0_mm", -lim::kMaxAbsZMm, lim::kMaxAbsZMm, "mm"); !st)
+    return st;
   if (s.pith.empty()) return Error("stem.pith", "is empty: a log needs at least one stem sample");
+  if (s.pith.size() > static_cast<size_t>(lim::kMaxSlices))
+    return Error("stem.pith", "has " + std::to_string(s.pith.size()) + " samples, more than the " +
+                                  std::to_string(lim::kMaxSlices) + " allowed");
+  if (s.length_mm() > lim::kMaxLengthMm)
+    return Error("stem", "length " + num(s.length_mm()) + " mm (" + std::to_string(s.pith.size()) +
+                             " samples × dz_mm " + num(s.dz_mm) + ") is outside 0-" +
+                             num(lim::kMaxLengthMm) + " mm");
   if (s.n_angles < 3) return Error("stem.n_angles", "must be at least 3");
+  if (s.n_angles > lim::kMaxAngles)
+    return Error("stem.n_angles", std::to_string(s.n_angles) + " is outside " +
+                                      std::to_string(lim::kMinAngles) + "-" +
+                                      std::to_string(lim::kMaxAngles));
+  const long long values = static_cast<long long>(s.pith.size()) * s.n_angles;
+  if (values > lim::kMaxStemValues)
+    return Error("stem", std::to_string(s.pith.size()) + " samples × " +
+                             std::to_string(s.n_angles) + " angles = " + std::to_string(values) +
+                             " radii, more than the " + std::to_string(lim::kMaxStemValues) +
+                             " allowed");
+  return Status::Ok();
+}
+
+Status validate_stem(const Stem& s) {
+  if (Status st = validate_extent(s); !st) return st;
+  for (size_t i = 0; i < s.pith.size(); ++i) {
+    const Vec2 p = s.pith[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y))
+      return Error(at("stem.pith", i), "not a finite position");
+    for (double v : {p.x, p.y})
+      if (std::abs(v) > lim::kMaxAbsPithMm)
+        return Error(at("stem.pith", i), outside(v, -lim::kMaxAbsPithMm, lim::kMaxAbsPithMm, "mm"));
+  }
   if (s.radius.size() != s.pith.size())
     return Error("stem.radius", "needs one row per pith sample");
   for (size_t i = 0; i < s.radius.size(); ++i) {
     if (static_cast<int>(s.radius[i].size()) != s.n_angles)
-      return Error("stem.radius[" + std::to_string(i) + "]", "needs n_angles values");
-    for (size_t k = 0; k < s.radius[i].size(); ++k)
-      if (!(s.radius[i][k] > 0) || !std::isfinite(s.radius[i][k]))
-        return Error("stem.radius[" + std::to_string(i) + "][" + std::to_string(k) + "]",
-                     "radius must be a positive finite number");
+      return Error(at("stem.radius", i), "needs n_angles values");
+    for (size_t k = 0; k < s.radius[i].size(); ++k) {
+      const double r = s.radius[i][k];
+      if (!(r > 0) || !std::isfinite(r))
+        return Error(at("stem.radius", i, k), "radius must be a positive finite number");
+      if (r > lim::kMaxRadiusMm)
+        return Error(at("stem.radius", i, k), outside(r, 0, lim::kMaxRadiusMm, "mm"));
+    }
   }
   if (s.has_heartwood()) {
     if (s.heartwood.size() != s.pith.size())
       return Error("stem.heartwood", "needs one row per pith sample");
     for (size_t i = 0; i < s.heartwood.size(); ++i)
-      for (size_t k = 0; k < s.heartwood[i].size(); ++k)
-        if (s.heartwood[i][k] < 0)
-          return Error("stem.heartwood[" + std::to_string(i) + "][" + std::to_string(k) + "]",
-                       "must not be negative");
+      for (size_t k = 0; k < s.heartwood[i].size(); ++k) {
+        if (s.heartwood[i][k] < 0) return Error(at("stem.heartwood", i, k), "must not be negative");
+        if (Status st = check_range(s.heartwood[i][k], at("stem.heartwood", i, k), 0,
+                                    lim::kMaxRadiusMm, "mm");
+            !st)
+          return st;
+      }
   }
-  for (size_t i = 0; i < log.knots.size(); ++i) {
-    const Knot& k = log.knots[i];
-    const std::string w = "knots[" + std::to_string(i) + "]";
-    for (double v : {k.z0, k.a, k.b, k.omega0, k.twist, k.r_dead, k.r_end, k.diameter.d_dead,
-                     k.diameter.exponent})
-      if (!std::isfinite(v)) return Error(w, "has a non-finite parameter");
-    if (!(k.r_end > 0)) return Error(w + ".r_end", "must be positive (the knot's length from the pith)");
-    if (k.r_dead < 0) return Error(w + ".r_dead", "must not be negative");
-    if (k.diameter.d_dead < 0) return Error(w + ".d_dead", "must not be negative");
-    if (!(k.diameter.exponent > 0)) return Error(w + ".d_exp", "must be positive");
-  }
+  if (!s.bark_mm.empty() && s.bark_mm.size() != s.pith.size())
+    return Error("stem.bark_mm", "needs one value per pith sample");
+  for (size_t i = 0; i < s.bark_mm.size(); ++i)
+    if (Status st = check_range(s.bark_mm[i], at("stem.bark_mm", i), 0, lim::kMaxBarkMm, "mm"); !st)
+      return st;
+  return Status::Ok();
+}
+
+Status validate_knot(const Knot& k, const std::string& w) {
+  for (double v : {k.z0, k.a, k.b, k.omega0, k.twist, k.r_dead, k.r_end, k.diameter.d_dead,
+                   k.diameter.exponent})
+    if (!std::isfinite(v)) return Error(w, "has a non-finite parameter");
+  if (!(k.r_end > 0))
+    return Error(w + ".r_end", "must be positive (the knot's length from the pith)");
+  if (k.r_dead < 0) return Error(w + ".r_dead", "must not be negative");
+  if (k.diameter.d_dead < 0) return Error(w + ".d_dead", "must not be negative");
+  if (!(k.diameter.exponent > 0)) return Error(w + ".d_exp", "must be positive");
+  struct Bound {
+    const char* key;
+    double v, lo, hi;
+    const char* unit;
+  };
+  const Bound bounds[] = {
+      {"z0", k.z0, -lim::kMaxAbsZMm, lim::kMaxAbsZMm, "mm"},
+      {"a", k.a, -lim::kMaxAbsA, lim::kMaxAbsA, "mm/√mm"},
+      {"b", k.b, -lim::kMaxAbsB, lim::kMaxAbsB, "mm/mm"},
+      {"omega0", k.omega0, -lim::kMaxAbsOmegaRad, lim::kMaxAbsOmegaRad, "rad"},
+      {"twist", k.twist, -lim::kMaxAbsTwist, lim::kMaxAbsTwist, "rad per ln(mm)"},
+      {"r_dead", k.r_dead, 0, lim::kMaxKnotLengthMm, "mm"},
+      {"r_end", k.r_end, 0, lim::kMaxKnotLengthMm, "mm"},
+      {"d_dead", k.diameter.d_dead, 0, lim::kMaxKnotDiameterMm, "mm"},
+      {"d_exp", k.diameter.exponent, 0, lim::kMaxExponent, ""},
+      {"fit_rms_mm", k.fit_rms_mm, 0, lim::kMaxFitRmsMm, "mm"},
+  };
+  for (const Bound& b : bounds)
+    if (Status st = check_range(b.v, w + "." + b.key, b.lo, b.hi, b.unit); !st) return st;
+  if (k.support < 0) return Error(w + ".support", "must not be negative");
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status validate(const LogModel& log) {
+  if (Status st = validate_stem(log.stem); !st) return st;
+  if (log.knots.size() > static_cast<size_t>(lim::kMaxKnots))
+    return Error("knots", std::to_string(log.knots.size()) + " knots, more than the " +
+                              std::to_string(lim::kMaxKnots) + " allowed");
+  for (size_t i = 0; i < log.knots.size(); ++i)
+    if (Status st = validate_knot(log.knots[i], at("knots", i)); !st) return st;
   return Status::Ok();
 }
 
 Result<LogModel> read_log_json(const std::filesystem::path& path) {
-  Result<std::string> text = read_text_file(path);
+  Result<std::string> text = read_text_file(path, lim::kMaxFileBytes);
   if (!text) return text.error();
   Result<LogModel> log = log_from_json(text.value());
   if (!log) return log.error().with_context(path.string());

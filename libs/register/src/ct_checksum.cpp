@@ -1,6 +1,7 @@
 #include "sawyer/register/ct_checksum.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <xxhash.h>
 
@@ -30,8 +31,18 @@ std::string errno_text(int e) { return std::error_code(e, std::generic_category(
 // hand to XXH3, and the kernel told we read front to back (bigger read-ahead).
 Status hash_file(XXH3_state_t* state, const fs::path& path, std::vector<char>& buf,
                  std::uint64_t* size_out) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: a file swapped for a FIFO after it was listed must not block the open; fstat
+  // then refuses anything that is not a regular file.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) return Error(path.string(), "cannot open: " + errno_text(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    return Error(path.string(), "not a regular file");
+  }
+  // Back to blocking reads for the regular file (O_NONBLOCK means nothing for it on Linux, but
+  // other file systems may honour it).
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
   ::posix_fadvise(fd, 0, 0, POSIX_FADV_SEQUENTIAL);
   std::uint64_t total = 0;
   for (;;) {
@@ -74,15 +85,20 @@ Result<std::string> ct_checksum(const fs::path& ct) {
   }
   if (!fs::is_directory(st)) return Error(ct.string(), "neither a file nor a folder");
 
-  // Sorted relative paths: the hash must not depend on the order the file system lists them in.
+  // What a scan folder holds is what the CT readers read (open_ct, the DICOM and stack readers
+  // list the folder the same way): the regular files directly in it whose names do not start
+  // with '.', a symbolic link counting as the file it points to. Sub-folders (a phantom's truth/,
+  // a viewer's cache) and links to folders are not part of the scan and are never entered, so a
+  // link loop (`ln -s . a`) cannot make the checksum read forever; FIFOs, sockets and devices
+  // are skipped, so nothing here blocks on an open() or reads an endless stream.
+  // Sorted names: the hash must not depend on the order the file system lists them in.
   std::vector<std::pair<std::string, fs::path>> files;
-  fs::recursive_directory_iterator it(ct, fs::directory_options::follow_directory_symlink, ec);
-  if (ec) return Error(ct.string(), "cannot list the folder: " + ec.message());
-  for (; it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    if (ec) return Error(ct.string(), "cannot list the folder: " + ec.message());
+  for (fs::directory_iterator it(ct, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.starts_with(".")) continue;
     std::error_code fec;
     if (!it->is_regular_file(fec)) continue;
-    files.emplace_back(fs::relative(it->path(), ct, fec).generic_string(), it->path());
+    files.emplace_back(name, it->path());
   }
   if (ec) return Error(ct.string(), "cannot list the folder: " + ec.message());
   std::sort(files.begin(), files.end());

@@ -13,8 +13,12 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <mutex>
 #include <system_error>
 #include <thread>
+#include <vector>
+
+#include "sawyer/core/interrupt.h"
 
 extern char** environ;
 
@@ -38,6 +42,42 @@ struct Running {
   bool stderr_is_temp = false;
   bool term_sent = false, kill_sent = false;
   Clock::time_point term_at;
+};
+
+// The children alive now, for the interrupt hook (which runs on another thread): on SIGINT or
+// SIGTERM the batch passes SIGTERM on, so that each `sawyer run` removes its temporary output,
+// and waits for them before it ends.
+struct LiveChildren {
+  std::mutex mu;
+  std::vector<pid_t> pids;
+  void add(pid_t p) {
+    std::lock_guard<std::mutex> lock(mu);
+    pids.push_back(p);
+  }
+  void remove(pid_t p) {
+    std::lock_guard<std::mutex> lock(mu);
+    pids.erase(std::remove(pids.begin(), pids.end(), p), pids.end());
+  }
+  void stop_all() {
+    std::vector<pid_t> now;
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      now = pids;
+    }
+    for (pid_t p : now) ::kill(p, SIGTERM);
+    const auto t0 = Clock::now();
+    for (pid_t p : now) {
+      // Reaped here or by the pool's loop (then waitpid says ECHILD): either way it is gone.
+      while (::waitpid(p, nullptr, WNOHANG) == 0) {
+        if (std::chrono::duration<double>(Clock::now() - t0).count() > kKillGraceS) {
+          ::kill(p, SIGKILL);
+          ::waitpid(p, nullptr, 0);
+          break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    }
+  }
 };
 
 std::string errno_text(int e) { return std::error_code(e, std::generic_category()).message(); }
@@ -145,6 +185,8 @@ std::vector<JobResult> run_jobs(const std::vector<Job>& jobs, const JobPoolOptio
   std::vector<Running> running;
   size_t next = 0;
   int done = 0;
+  LiveChildren live;
+  const int hook = add_interrupt_hook([&live] { live.stop_all(); });
 
   auto report = [&](size_t index) {
     ++done;
@@ -160,6 +202,7 @@ std::vector<JobResult> run_jobs(const std::vector<Job>& jobs, const JobPoolOptio
         report(r.index);
         continue;
       }
+      live.add(r.pid);
       running.push_back(r);
     }
     if (running.empty()) continue;
@@ -194,12 +237,14 @@ std::vector<JobResult> run_jobs(const std::vector<Job>& jobs, const JobPoolOptio
         finish(r, status, results[r.index]);
       }
       const size_t index = r.index;
+      live.remove(r.pid);
       running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
       report(index);
       any = true;
     }
     if (!any) std::this_thread::sleep_for(kPollInterval);
   }
+  remove_interrupt_hook(hook);
   return results;
 }
 

@@ -279,6 +279,18 @@ Result<LogRegister> LogRegister::open(const fs::path& db) {
     fs::create_directories(db.parent_path(), ec);
     if (ec) return Error(db.parent_path().string(), "cannot create folder: " + ec.message());
   }
+  const bool existed = fs::exists(fs::symlink_status(db, ec));
+  Result<LogRegister> r = open_or_create(db);
+  if (!r && !existed) {
+    // A register that could not be created whole (a full disk, a read-only folder) is not left
+    // behind as a stub that the next run would take for a register.
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"})
+      fs::remove(fs::path(db.string() + suffix), ec);
+  }
+  return r;
+}
+
+Result<LogRegister> LogRegister::open_or_create(const fs::path& db) {
   Result<std::unique_ptr<Impl>> opened =
       Impl::connect(db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
   if (!opened) return opened.error();
@@ -532,7 +544,16 @@ fs::path default_register_path() {
     return fs::path(xdg) / "sawyer" / "logs.sqlite";
   if (const char* home = std::getenv("HOME"); home && *home)
     return fs::path(home) / ".local" / "share" / "sawyer" / "logs.sqlite";
-  return fs::path("logs.sqlite");
+  return {};
+}
+
+Result<fs::path> register_path(const std::string& db_option, const std::string& option) {
+  if (!db_option.empty()) return fs::path(db_option);
+  fs::path p = default_register_path();
+  if (p.empty())
+    return Error("log register", "HOME is not set, so there is no default register; give " +
+                                     option + " FILE or set SAWYER_DB (or pass --no-register)");
+  return p;
 }
 
 }  // namespace sawyer::reg

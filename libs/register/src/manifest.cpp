@@ -1,6 +1,8 @@
 #include "sawyer/register/manifest.h"
 
 #include <charconv>
+#include <cstdint>
+#include <cstdio>
 #include <map>
 #include <system_error>
 
@@ -102,11 +104,47 @@ const std::vector<std::string>& manifest_columns() {
   return kColumns;
 }
 
+namespace {
+
+constexpr std::uintmax_t kMaxManifestBytes = 16u << 20;  // 16 MiB: ~100 000 rows
+
+// The line and a description of the first byte that cannot be in a text CSV (a NUL or other
+// control byte, or a byte sequence that is not UTF-8), or line 0 when the text is clean. A binary
+// file given by mistake is refused here, before any of its bytes reach a message.
+std::pair<int, std::string> first_non_text(const std::string& t) {
+  int line = 1;
+  for (size_t i = 0; i < t.size();) {
+    const unsigned char c = static_cast<unsigned char>(t[i]);
+    char hex[8];
+    std::snprintf(hex, sizeof hex, "0x%02X", c);
+    if (c == '\n') ++line;
+    if (c < 0x80) {
+      if (c < 0x20 && c != '\n' && c != '\r' && c != '\t')
+        return {line, std::string("a control byte ") + hex};
+      if (c == 0x7F) return {line, std::string("a control byte ") + hex};
+      ++i;
+      continue;
+    }
+    const int len = c >= 0xF0 && c <= 0xF4 ? 4 : c >= 0xE0 ? 3 : c >= 0xC2 && c <= 0xDF ? 2 : 0;
+    bool ok = len > 0 && i + static_cast<size_t>(len) <= t.size();
+    for (int k = 1; ok && k < len; ++k)
+      ok = (static_cast<unsigned char>(t[i + static_cast<size_t>(k)]) & 0xC0) == 0x80;
+    if (!ok) return {line, std::string("a byte ") + hex + " that is not UTF-8 text"};
+    i += static_cast<size_t>(len);
+  }
+  return {0, ""};
+}
+
+}  // namespace
+
 Result<Manifest> read_manifest(const fs::path& path) {
-  Result<std::string> text = read_text_file(path);
+  Result<std::string> text = read_text_file(path, kMaxManifestBytes);
   if (!text) return text.error();
   const std::string& t = text.value();
   const std::string where = path.string();
+  if (auto [bad_line, what] = first_non_text(t); bad_line > 0)
+    return Error(where + ":" + std::to_string(bad_line),
+                 "holds " + what + "; a manifest is a UTF-8 text CSV (a binary file given?)");
   size_t pos = t.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
   const fs::path base = fs::absolute(path).parent_path();
 

@@ -4,6 +4,8 @@
 #include <sstream>
 #include <vector>
 
+#include "sawyer/model/log_json.h"
+
 namespace sawyer::render {
 
 const char* face_name(Face f) {
@@ -54,12 +56,41 @@ PlaneRect Board::face(Face f) const {
   return r;
 }
 
+namespace {
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+}  // namespace
+
 Status Board::validate() const {
   for (double x : {cx, cy, width, thickness, rotation, z0, z1})
     if (!std::isfinite(x)) return Error("board", "values must be finite numbers");
   if (!(width > 0)) return Error("board", "width must be > 0 mm");
   if (!(thickness > 0)) return Error("board", "thickness must be > 0 mm");
   if (!(z1 > z0)) return Error("board", "z1 must be greater than z0");
+  // The log model's own limits (log_json.h): a board lies within the largest log's reach.
+  struct Bound {
+    const char* what;
+    double v, lo, hi;
+  };
+  const double reach = log_limits::kMaxAbsPithMm + log_limits::kMaxRadiusMm;
+  const double side = 2 * log_limits::kMaxRadiusMm;
+  const Bound bounds[] = {{"centre x", cx, -reach, reach},
+                          {"centre y", cy, -reach, reach},
+                          {"width", width, 0, side},
+                          {"thickness", thickness, 0, side},
+                          {"rotation (radians)", rotation, -4 * kPi, 4 * kPi},
+                          {"z0", z0, -log_limits::kMaxAbsZMm, log_limits::kMaxAbsZMm},
+                          {"z1", z1, -log_limits::kMaxAbsZMm, log_limits::kMaxAbsZMm}};
+  for (const Bound& b : bounds)
+    if (b.v < b.lo || b.v > b.hi)
+      return Error("board", std::string(b.what) + " " + num(b.v) + " is outside " + num(b.lo) +
+                                (b.lo < 0 ? " to " : "-") + num(b.hi) +
+                                (b.what[0] == 'r' ? "" : " mm"));
   return Status::Ok();
 }
 
@@ -86,6 +117,8 @@ Result<Board> Board::from_string(const std::string& text) {
   b.cy = v[1];
   b.width = v[2];
   b.thickness = v[3];
+  if (!(std::abs(v[4]) <= 360))
+    return Error("--board", "rotation " + num(v[4]) + "° is outside -360 to 360°");
   b.rotation = v[4] * kPi / 180.0;
   b.z0 = v[5];
   b.z1 = v[6];

@@ -7,14 +7,6 @@
 namespace sawyer::render {
 namespace {
 
-constexpr int kMaxSide = 16384;
-
-Status check_size(int w, int h) {
-  if (w < 1 || h < 1 || w > kMaxSide || h > kMaxSide)
-    return Error("--size", std::to_string(w) + "x" + std::to_string(h) + " outside 1.." +
-                               std::to_string(kMaxSide) + " pixels");
-  return Status::Ok();
-}
 
 struct Tile {
   PlaneRect rect;
@@ -24,6 +16,11 @@ struct Tile {
 // Samples per pixel side: the layout's, 1 for the raw field (its values must not be averaged).
 int samples(const ShadeOptions& shade, const FaceLayout& layout) {
   return shade.mode == ShadeMode::kTimeField ? 1 : std::clamp(layout.supersample, 1, 4);
+}
+
+// The size against the limits, for the shading and layout it is rendered with.
+Status check_size(int w, int h, const ShadeOptions& shade, const FaceLayout& layout) {
+  return check_image_size(w, h, samples(shade, layout), shade.mode == ShadeMode::kTimeField);
 }
 
 // Averages n x n blocks of an 8-bit image.
@@ -52,7 +49,7 @@ Image downsample(const Image& big, int n) {
 // Renders tiles (each a rectangle filling its viewport) into one image.
 Result<Image> render_tiles(WoodRenderer& r, const std::vector<Tile>& tiles, int w, int h,
                            const ShadeOptions& shade, const FaceLayout& layout) {
-  if (Status st = check_size(w, h); !st) return st.error();
+  if (Status st = check_size(w, h, shade, layout); !st) return st.error();
   const bool is_float = shade.mode == ShadeMode::kTimeField;
   const int n = samples(shade, layout);
   Result<Framebuffer> fb = Framebuffer::create(
@@ -81,6 +78,23 @@ std::vector<Tile> single_tile(const PlaneRect& rect, ImageSize& size, const Face
 
 }  // namespace
 
+Status check_image_size(int w, int h, int n, bool float_field) {
+  if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide)
+    return Error("--size", std::to_string(w) + "x" + std::to_string(h) + " outside 1.." +
+                               std::to_string(kMaxImageSide) + " pixels");
+  const long long bytes = static_cast<long long>(w) * n * h * n * (float_field ? 16 : 4);
+  if (bytes > kMaxFramebufferBytes) {
+    const std::string samples =
+        n > 1 ? " at " + std::to_string(n) + "x" + std::to_string(n) + " supersampling" : "";
+    return Error("--size", std::to_string(w) + "x" + std::to_string(h) + samples + " needs " +
+                               std::to_string(bytes >> 20) + " MiB of framebuffer, more than the " +
+                               std::to_string(kMaxFramebufferBytes >> 20) +
+                               " MiB allowed (a smaller size" + (n > 1 ? " or --supersample" : "") +
+                               ")");
+  }
+  return Status::Ok();
+}
+
 Result<Image> render_board_faces(WoodRenderer& r, const Board& board, unsigned faces,
                                  ImageSize size, const ShadeOptions& shade,
                                  const FaceLayout& layout) {
@@ -105,7 +119,7 @@ Result<Image> render_board_faces(WoodRenderer& r, const Board& board, unsigned f
   } else {
     sx = sy = std::min(sx, std::max(1.0, static_cast<double>(size.height - gaps)) / sum_h);
   }
-  if (Status st = check_size(size.width, size.height); !st) return st.error();
+  if (Status st = check_size(size.width, size.height, shade, layout); !st) return st.error();
   std::vector<Tile> tiles;
   double y = 0;  // from the top of the image
   for (const PlaneRect& p : rects) {
@@ -163,7 +177,7 @@ Result<Image> render_longitudinal_section(WoodRenderer& r, const LongitudinalSec
 Result<Image> render_view(WoodRenderer& r, const Scene& scene, const Camera& camera, ImageSize size,
                           const ShadeOptions& shade, const FaceLayout& layout) {
   if (size.height <= 0) size.height = std::max(1, size.width * 3 / 4);
-  if (Status st = check_size(size.width, size.height); !st) return st.error();
+  if (Status st = check_size(size.width, size.height, shade, layout); !st) return st.error();
   const bool is_float = shade.mode == ShadeMode::kTimeField;
   const int n = samples(shade, layout);
   Result<Framebuffer> fb =

@@ -70,6 +70,21 @@ class PdfWriter {
               kMargin, 68);
     rule(76);
     y_ = 96;
+    // What the scan's reader had to do (e.g. slices interpolated over a gap) is part of what
+    // the figures below rest on: stated on every page, under the header.
+    if (!r.scan_notes.empty()) {
+      set_font(cr_, 7, true);
+      set_color(cr_, kInk);
+      constexpr size_t kMaxNotes = 3;
+      for (size_t i = 0; i < r.scan_notes.size() && i < kMaxNotes; ++i) {
+        std::string n = "Scan: " + r.scan_notes[i];
+        if (i + 1 == kMaxNotes && r.scan_notes.size() > kMaxNotes)
+          n += "  (and " + std::to_string(r.scan_notes.size() - kMaxNotes) + " more in run.json)";
+        draw_text(cr_, n, kMargin, y_ - 6);
+        y_ += 12;
+      }
+      y_ += 6;
+    }
   }
 
   void footer() {
@@ -582,6 +597,8 @@ std::string report_html(const Content& c) {
     << "<div class=\"meta\">Run " << html_escape(or_none(r.run.date))
     << " · scan: " << html_escape(or_none(r.run.scan_description)) << " · Sawyer "
     << html_escape(or_none(r.run.sawyer_version)) << "</div>\n";
+  for (const std::string& n : r.run.scan_notes)
+    h << "<div class=\"meta\"><b>Scan: " << html_escape(n) << "</b></div>\n";
   h << "<div class=\"cols\"><div><h2>The log</h2>" << html_rows(log_rows(c))
     << "</div><div><h2>The sawing</h2>" << html_rows(position_rows(c)) << "</div></div>\n";
   h << "<h2>End view</h2><div class=\"endview\">";

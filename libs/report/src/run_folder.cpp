@@ -201,6 +201,9 @@ Result<RunInfo> parse_run(const Json& j) {
   r.scan_checksum = opt_string(j, "scan_checksum");
   r.date = opt_string(j, "date");
   r.sawyer_version = opt_string(j, "sawyer_version");
+  if (auto n = j.find("scan_notes"); n != j.end() && n->is_array())
+    for (const Json& s : *n)
+      if (s.is_string()) r.scan_notes.push_back(s.get<std::string>());
   if (auto o = j.find("options"); o != j.end() && o->is_object()) {
     r.pattern = opt_string(*o, "pattern");
     r.grading = opt_string(*o, "grading");

@@ -252,7 +252,7 @@ Result<GradingRules> grading_from_json(const std::string& text) {
 }
 
 Result<GradingRules> read_grading_file(const std::filesystem::path& path) {
-  Result<std::string> text = read_text_file(path);
+  Result<std::string> text = read_data_file(path);
   if (!text) return text.error();
   Result<GradingRules> r = grading_from_json(text.value());
   if (!r) return r.error().with_context(path.string());

@@ -1,6 +1,8 @@
 // See json_text.h.
 #include "json_text.h"
 
+#include "sawyer/core/file_util.h"
+
 namespace sawyer::sawing {
 namespace {
 
@@ -13,6 +15,10 @@ std::string line_of(const std::string& text, size_t byte) {
 }
 
 }  // namespace
+
+Result<std::string> read_data_file(const std::filesystem::path& path) {
+  return read_text_file(path, kMaxDataFileBytes);
+}
 
 Result<nlohmann::ordered_json> parse_json_text(const std::string& text) {
   try {

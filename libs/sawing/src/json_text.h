@@ -4,11 +4,21 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
+#include <filesystem>
 #include <string>
 
 #include "sawyer/core/result.h"
 
 namespace sawyer::sawing {
+
+// Pattern, grading and price files are a few kB (the bundled ones 1-4 kB); 1 MiB holds any
+// hand-written table many times over.
+inline constexpr std::uintmax_t kMaxDataFileBytes = std::uintmax_t{1} << 20;
+
+// The text of a pattern, grading or price file: a regular file (not a FIFO, a device or a
+// folder) of at most kMaxDataFileBytes, checked before it is read; else one error naming it.
+Result<std::string> read_data_file(const std::filesystem::path& path);
 
 Result<nlohmann::ordered_json> parse_json_text(const std::string& text);
 

@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <sstream>
+#include <string>
 #include <thread>
 
 namespace sawyer::sawing {
@@ -65,6 +67,24 @@ bool is_point_symmetric(const Pattern& p) {
   return true;
 }
 
+namespace {
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+// "<what> (<option>) <v><unit> is outside <lo>-<hi><unit>" for a value out of [lo, hi] or NaN.
+Status in_range(const char* what, const char* option, double v, double lo, double hi,
+                const char* unit) {
+  if (std::isfinite(v) && v >= lo && v <= hi) return Status::Ok();
+  return Error(std::string(what) + " (" + option + ")",
+               num(v) + unit + " is outside " + num(lo) + "-" + num(hi) + unit);
+}
+
+}  // namespace
+
 Status OptimiseOptions::validate(const Pattern& p) const {
   if (!(rot_step_deg > 0)) return Error("rotation step", "must be > 0");
   if (rot_range_deg != 0 && rot_range_deg != 180 && rot_range_deg != 360)
@@ -72,16 +92,49 @@ Status OptimiseOptions::validate(const Pattern& p) const {
   if (rot_range_deg == 180 && !is_point_symmetric(p))
     return Error("rotation range", "180° needs a point-symmetric pattern; '" + p.name + "' is not");
   const double range = rot_range_deg != 0 ? rot_range_deg : (is_point_symmetric(p) ? 180 : 360);
+  // Steps below 0.01° or 0.01 mm are far finer than any saw can set a log; the bounds also keep
+  // the grid's counts within int before the position budget below is checked.
+  if (Status st = in_range("rotation step", "--rot-step", rot_step_deg, kMinRotStepDeg, range, "°");
+      !st)
+    return st;
   if (!whole(range / rot_step_deg) || range / rot_step_deg < 1)
     return Error("rotation step", "must divide " + std::to_string(static_cast<int>(range)) + "°");
-  for (auto [name, max, step] : {std::tuple{"offset x", offset_x_max_mm, offset_x_step_mm},
-                                 std::tuple{"offset y", offset_y_max_mm, offset_y_step_mm}}) {
+  for (auto [name, opt, opt_step, max, step] :
+       {std::tuple{"offset x", "--offsets", "--offset-step", offset_x_max_mm, offset_x_step_mm},
+        std::tuple{"offset y", "--offsets-y", "--offset-y-step", offset_y_max_mm,
+                   offset_y_step_mm}}) {
     if (!(max >= 0)) return Error(name, "range must be ≥ 0");
+    if (Status st = in_range(name, opt, max, 0, kMaxOffsetMm, " mm"); !st) return st;
     if (max > 0 && (!(step > 0) || !whole(max / step)))
       return Error(name, "step must be > 0 and divide the range");
+    if (max > 0) {
+      const std::string what = std::string(name) + " step";
+      if (Status st = in_range(what.c_str(), opt_step, step, kMinOffsetStepMm, max, " mm"); !st)
+        return st;
+    }
   }
   if (!(sigma_rot_deg >= 0) || !(sigma_offset_mm >= 0)) return Error("sigma", "must be ≥ 0");
+  if (Status st = in_range("sigma", "--sigma-rot", sigma_rot_deg, 0, kMaxSigmaRotDeg, "°"); !st)
+    return st;
+  if (Status st = in_range("sigma", "--sigma-offset", sigma_offset_mm, 0, kMaxSigmaOffsetMm, " mm");
+      !st)
+    return st;
   if (threads < 0) return Error("threads", "must be ≥ 0");
+  // Every position is sawn and graded, and the value surface is kept twice: the grid's size is
+  // the job's time and memory.
+  const double nr = std::round(range / rot_step_deg);
+  const double nx =
+      offset_x_max_mm > 0 ? 2 * std::round(offset_x_max_mm / offset_x_step_mm) + 1 : 1;
+  const double ny =
+      offset_y_max_mm > 0 ? 2 * std::round(offset_y_max_mm / offset_y_step_mm) + 1 : 1;
+  if (nr * nx * ny > kMaxPositions)
+    return Error("sawing grid",
+                 num(nr * nx * ny) + " positions (" + num(nr) + " rotations × " + num(nx) + " × " +
+                     num(ny) + " offsets from --rot-step " + num(rot_step_deg) + ", --offsets " +
+                     num(offset_x_max_mm) + " --offset-step " + num(offset_x_step_mm) +
+                     ", --offsets-y " + num(offset_y_max_mm) + " --offset-y-step " +
+                     num(offset_y_step_mm) + ") is more than the " + num(kMaxPositions) +
+                     " allowed; use coarser steps or narrower offsets");
   return Status::Ok();
 }
 

@@ -114,7 +114,7 @@ std::string pattern_to_json(const Pattern& p) {
 }
 
 Result<Pattern> read_pattern_file(const std::filesystem::path& path) {
-  Result<std::string> text = read_text_file(path);
+  Result<std::string> text = read_data_file(path);
   if (!text) return text.error();
   Result<Pattern> p = pattern_from_json(text.value());
   if (!p) return p.error().with_context(path.string());

@@ -100,7 +100,7 @@ Result<PriceTable> prices_from_json(const std::string& text) {
 }
 
 Result<PriceTable> read_price_file(const std::filesystem::path& path) {
-  Result<std::string> text = read_text_file(path);
+  Result<std::string> text = read_data_file(path);
   if (!text) return text.error();
   Result<PriceTable> r = prices_from_json(text.value());
   if (!r) return r.error().with_context(path.string());

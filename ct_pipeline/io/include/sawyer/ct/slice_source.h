@@ -17,6 +17,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -29,6 +30,17 @@
 namespace sawyer::ct {
 
 enum class Format { kDicom, kTiffStack, kMultiPageTiff, kPngStack, kVti, kMetaImage, kNrrd };
+
+// What make_uniform_z() did to put a source on an even z grid (all zero / false when the
+// source was even already, or only snapped within 1 % of a spacing).
+struct ZResampling {
+  bool resampled = false;     // slices come out interpolated along z
+  int source_slices = 0;      // slices in the file(s)
+  int invented_slices = 0;    // output slices standing in for missing ones (no source slice)
+  int gaps = 0;               // gaps with missing slices
+  double widest_gap_mm = 0;   // the widest distance between neighbouring slices present
+  double widest_gap_z0 = 0;   // where it starts (mm, relative to the first slice)
+};
 
 // "DICOM series", "TIFF stack", ... for messages and `sawyer info`.
 const char* format_name(Format f);
@@ -53,6 +65,7 @@ struct VolumeGeometry {
   double rescale_intercept = 0.0;
   int bits_stored = 16;          // 8, 12, 16 or 32 (float data)
   bool pixel_signed = false;
+  ZResampling z_resampling;
 
   int slice_count() const { return static_cast<int>(z.size()); }
   // Median distance between neighbouring slices (0 for one slice).
@@ -106,6 +119,15 @@ struct OpenOptions {
   ZPolicy z_policy = ZPolicy::kResample;
   // Gaps wider than this many median spacings count as missing slices.
   double gap_tolerance = 1.5;
+  // kResample refuses to invent more than `max_invented_fraction` of the output slices, or to
+  // fill one gap wider than `max_gap_mm` (defaults kMaxInventedFraction, 10 %, and kMaxGapMm,
+  // 50 mm, in limits.h), unless `allow_gaps` (the command line's --allow-gaps).
+  bool allow_gaps = false;
+  double max_invented_fraction = 0.10;
+  double max_gap_mm = 50.0;
+  // Memory the volume may use is checked against this (bytes) instead of /proc/meminfo's
+  // MemAvailable when set (see check_memory in limits.h).
+  std::optional<std::uint64_t> memory_available_bytes;
 };
 
 // Opens a folder (DICOM series, TIFF/PNG stack, or a folder with one volume file) or a single
@@ -118,5 +140,10 @@ Result<std::unique_ptr<SliceSource>> open_ct(const std::filesystem::path& path,
 // Duplicate positions are always an error. Sources with an even grid pass through unchanged.
 Result<std::unique_ptr<SliceSource>> make_uniform_z(std::unique_ptr<SliceSource> source,
                                                      const OpenOptions& options);
+
+// One line on how the slices were put on an even z grid, for `run`/`scan` output, run.json and
+// the report, e.g. "resampled along z: 38 slices in the files, 41 out at 5.0 mm; 3 invented
+// (7.3 %) in 1 gap, widest 20.0 mm at z=120.0..140.0 mm". Empty when nothing was resampled.
+std::string resampling_summary(const VolumeGeometry& geometry);
 
 }  // namespace sawyer::ct

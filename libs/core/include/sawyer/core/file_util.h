@@ -1,6 +1,7 @@
 // Small file helpers shared by every writer: whole-file reads and atomic writes.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <string>
@@ -9,8 +10,21 @@
 
 namespace sawyer {
 
-// Reads a whole file. Errors name the file.
-Result<std::string> read_text_file(const std::filesystem::path& path);
+// The most read_text_file reads unless told otherwise: far above any log.json, manifest or
+// settings file Sawyer reads, far below what would strain memory.
+inline constexpr std::uintmax_t kMaxTextFileBytes = 256u << 20;  // 256 MiB
+
+// Reads a whole file the user named, its type and size checked before a byte is read: a FIFO
+// would block the reader, a device such as /dev/zero never ends, a huge file would be read whole
+// into memory. One error naming the path: no such file, a folder, not a regular file (FIFO,
+// device, socket), more than `max_bytes` bytes, or a failed read. Symbolic links are followed.
+//
+//   Result<std::string> text = read_text_file(path, 1 << 20);  // at most 1 MiB
+Result<std::string> read_text_file(const std::filesystem::path& path,
+                                   std::uintmax_t max_bytes = kMaxTextFileBytes);
+
+// "1 MiB", "512 MiB", "1.5 KiB": a byte count for messages.
+std::string byte_size_text(std::uintmax_t bytes);
 
 // Writes `text` to `path` atomically: a temporary file beside it, then a rename, so a failure
 // never leaves a half-written file under the final name.

@@ -102,11 +102,19 @@ class LogRegister {
  private:
   struct Impl;
   explicit LogRegister(std::unique_ptr<Impl> impl);
+  // open() without the clean-up of a failed create.
+  static Result<LogRegister> open_or_create(const std::filesystem::path& db);
   std::unique_ptr<Impl> impl_;
 };
 
 // Where the register lives by default: $SAWYER_DB, else $XDG_DATA_HOME/sawyer/logs.sqlite, else
-// $HOME/.local/share/sawyer/logs.sqlite (else ./logs.sqlite when HOME is unset).
+// $HOME/.local/share/sawyer/logs.sqlite. Empty when none of the three is set: a register is
+// never created in whatever folder the process happens to run in.
 std::filesystem::path default_register_path();
+
+// The register a command uses: `db_option` (its --db) if given, else default_register_path(),
+// else an Error saying how to name one (`option` is the command's flag for it, e.g. "--db").
+Result<std::filesystem::path> register_path(const std::string& db_option,
+                                            const std::string& option = "--db");
 
 }  // namespace sawyer::reg

@@ -15,6 +15,18 @@ struct ImageSize {
   int height = 0;  // 0: from the content's aspect ratio (board faces, sections)
 };
 
+// Image size limits. The image is rendered into a framebuffer of (w·n) × (h·n) samples for n × n
+// supersampling, 4 bytes a sample (16 for the float time field, which is not supersampled), and
+// read back to the host, where it is held twice while its rows are flipped: at most
+// kMaxFramebufferBytes (512 MiB, so about 1 GiB of host memory at the peak and the same on the
+// GPU). 8192 per side is a 68-megapixel print; GPUs' renderbuffers stop at 16384 or 32768.
+inline constexpr int kMaxImageSide = 8192;
+inline constexpr long long kMaxFramebufferBytes = 512LL << 20;
+
+// Checks a w × h image at n × n samples per pixel (`float_field`: 16-byte samples) against the
+// limits above; the error names --size with the size, the samples and the limit.
+Status check_image_size(int width, int height, int supersample, bool float_field);
+
 struct FaceLayout {
   // Fill the image exactly even when that stretches the faces (else keep millimetres square and
   // pad with the background).

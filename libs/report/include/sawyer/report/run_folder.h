@@ -26,6 +26,9 @@ struct RunInfo {
   // The names `sawyer saw` was given (pattern "2ex" or a file, grading "nordic" or a file, prices
   // file or "" for the example prices, position "rot,x,y" or "").
   std::string pattern, grading, prices, position;
+  // What the reader had to do to the scan (slices interpolated along z, files ignored, ...),
+  // one line each; the report states them under its header.
+  std::vector<std::string> scan_notes;
   struct Stage {
     std::string name;
     double seconds = -1;

@@ -32,6 +32,17 @@ namespace sawyer::sawing {
 // twin of the same size, axis and edging at (−u, −v).
 bool is_point_symmetric(const Pattern& p);
 
+// Limits of OptimiseOptions::validate(). A saw sets a log to about 1° and 1 mm; steps of 0.01
+// are a hundred times finer. Offsets beyond the largest log radius (log_json.h) saw nothing. A
+// positioning error σ of 90° or 100 mm means no positioning at all. A million positions is a
+// thousand times the default grid (90 × 11), minutes of sawing, 16 MB of value surface.
+inline constexpr double kMinRotStepDeg = 0.01;
+inline constexpr double kMinOffsetStepMm = 0.01;
+inline constexpr double kMaxOffsetMm = 1500.0;
+inline constexpr double kMaxSigmaRotDeg = 90.0;
+inline constexpr double kMaxSigmaOffsetMm = 100.0;
+inline constexpr double kMaxPositions = 1e6;
+
 struct OptimiseOptions {
   double rot_step_deg = 2.0;
   double rot_range_deg = 0.0;  // 0: 180 for a point-symmetric pattern, else 360; else 180 or 360
@@ -42,7 +53,8 @@ struct OptimiseOptions {
   int threads = 0;                                        // 0: std::thread::hardware_concurrency()
   int ranked = 20;  // positions kept in OptimiseResult::ranked
   // Range divisible by the step, offsets' max a whole number of steps, sizes > 0, σ ≥ 0; 180 only
-  // for a point-symmetric pattern.
+  // for a point-symmetric pattern; every value within the limits above and at most
+  // kMaxPositions positions. Errors name the option (--rot-step, --offsets, ...).
   Status validate(const Pattern& p) const;
 };
 

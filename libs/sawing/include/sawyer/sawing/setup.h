@@ -31,8 +31,11 @@ Result<Pattern> pattern_by_name(const std::string& name_or_file);
 Result<GradingRules> grading_by_name(const std::string& name_or_file);
 // "" for the bundled example prices, else a price file.
 Result<PriceTable> prices_by_name(const std::string& file);
-// "rot[,x[,y]]": rotation in degrees (0 = horns down), offsets in mm; finite numbers only. The
-// error names --position.
+// Pattern, grading and price files must be regular files of at most 1 MiB (checked before they
+// are read: a FIFO would hang the reader and /dev/zero never ends).
+//
+// "rot[,x[,y]]": rotation in degrees (0 = horns down) within ±360, offsets in mm within
+// ±kMaxOffsetMm (optimise.h); finite numbers only. The error names --position.
 Result<LogPosition> parse_position(const std::string& text);
 
 }  // namespace sawyer::sawing

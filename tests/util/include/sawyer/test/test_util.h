@@ -38,6 +38,8 @@ int run_command(const std::string& command, std::string* output);
 // Runs the `sawyer` binary ($SAWYER_BIN, else the one built with the tests) with `args`; returns the exit code, stdout+stderr in
 // *output.
 int run_sawyer(const std::string& args, std::string* output);
+// The `sawyer` binary run_sawyer runs, for tests that start it themselves.
+std::string sawyer_bin();
 // `p` in double quotes, for run_sawyer's command line.
 std::string quoted(const std::filesystem::path& p);
 

@@ -1,0 +1,141 @@
+#include "sawyer/core/interrupt.h"
+
+#include <fcntl.h>
+#include <pthread.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <map>
+#include <mutex>
+#include <string>
+#include <system_error>
+#include <thread>
+#include <vector>
+
+namespace sawyer {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+int g_pipe[2] = {-1, -1};
+
+// Everything the watcher touches, behind one mutex. Leaked on purpose: the watcher may run while
+// static destructors do.
+struct Registry {
+  std::mutex mu;
+  std::multimap<std::string, int> temps;  // path -> count (a path may be tracked twice)
+  std::map<int, std::function<void()>> hooks;
+  int next_hook = 1;
+};
+Registry& registry() {
+  static Registry* r = new Registry;
+  return *r;
+}
+
+pthread_t g_watcher;
+
+// While the watcher cleans up, the other threads keep running and may trip over what it removes
+// (a write into a vanished folder that throws, a mapped file gone): such a thread is parked here
+// instead of aborting the process before the clean-up is done. A fault on the watcher itself
+// ends the process at once.
+extern "C" void park_thread(int sig) {
+  if (pthread_equal(pthread_self(), g_watcher)) ::_exit(kExitInterrupted + sig);
+  for (;;) ::pause();
+}
+
+extern "C" void on_signal(int sig) {
+  g_interrupted.store(true);
+  const unsigned char b = static_cast<unsigned char>(sig);
+  // A full pipe means a signal is already pending: nothing more to say.
+  [[maybe_unused]] ssize_t n = ::write(g_pipe[1], &b, 1);
+}
+
+void watch() {
+  unsigned char sig = 0;
+  for (;;) {
+    const ssize_t n = ::read(g_pipe[0], &sig, 1);
+    if (n == 1) break;
+    if (n < 0 && errno == EINTR) continue;
+    return;  // the pipe is gone: nothing to watch
+  }
+  struct sigaction park {};
+  park.sa_handler = park_thread;
+  sigemptyset(&park.sa_mask);
+  for (int s : {SIGABRT, SIGSEGV, SIGBUS, SIGFPE, SIGILL}) ::sigaction(s, &park, nullptr);
+  Registry& r = registry();
+  std::vector<std::function<void()>> hooks;
+  {
+    std::lock_guard<std::mutex> lock(r.mu);
+    for (auto& [id, h] : r.hooks) hooks.push_back(h);
+  }
+  for (auto& h : hooks) h();
+  {
+    // Held to the end: no writer tracks or untracks anything from here on.
+    r.mu.lock();
+    std::error_code ec;
+    for (const auto& [path, unused] : r.temps) fs::remove_all(path, ec);
+  }
+  static const char kMsg[] = "sawyer: interrupted; temporary files removed\n";
+  [[maybe_unused]] ssize_t n = ::write(2, kMsg, sizeof kMsg - 1);
+  ::_exit(kExitInterrupted + sig);
+}
+
+}  // namespace
+
+void install_interrupt_cleanup() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (::pipe2(g_pipe, O_CLOEXEC) != 0) return;
+    ::fcntl(g_pipe[1], F_SETFL, O_NONBLOCK);
+    registry();
+    std::thread watcher(watch);
+    g_watcher = watcher.native_handle();
+    watcher.detach();
+    struct sigaction sa {};
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    for (int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &sa, nullptr);
+  });
+}
+
+bool interrupted() { return g_interrupted.load(); }
+
+void track_temp_path(const fs::path& p) {
+  Registry& r = registry();
+  std::error_code ec;
+  const fs::path a = fs::absolute(p, ec);
+  std::lock_guard<std::mutex> lock(r.mu);
+  r.temps.emplace((ec ? p : a).string(), 0);
+}
+
+void untrack_temp_path(const fs::path& p) {
+  Registry& r = registry();
+  std::error_code ec;
+  const fs::path a = fs::absolute(p, ec);
+  std::lock_guard<std::mutex> lock(r.mu);
+  auto it = r.temps.find((ec ? p : a).string());
+  if (it != r.temps.end()) r.temps.erase(it);
+}
+
+int add_interrupt_hook(std::function<void()> hook) {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mu);
+  const int id = r.next_hook++;
+  r.hooks.emplace(id, std::move(hook));
+  return id;
+}
+
+void remove_interrupt_hook(int id) {
+  // Once a signal is being handled the hook may be running on the watcher thread with what it
+  // refers to; wait here for the watcher to end the process instead of destroying that.
+  while (interrupted()) ::pause();
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mu);
+  r.hooks.erase(id);
+}
+
+}  // namespace sawyer
