@@ -24,5 +24,5 @@ for t in fuzz_dicom fuzz_image_stack fuzz_vtk_volume fuzz_sawing_files fuzz_log_
   LSAN_OPTIONS=suppressions=$PWD/ct_pipeline/fuzz/lsan.supp \
   "build-fuzz/ct_pipeline/fuzz/$t" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 \
     -artifact_prefix="build-fuzz/crashes/$t/" "${dirs[@]}" \
-    2>&1 | grep -E "^#[0-9]+ +(DONE|INITED)|ERROR|SUMMARY|Test unit written" || true
+    2>&1 | grep -E "^#[0-9]+[[:space:]]+(DONE|INITED)|ERROR|SUMMARY|Test unit written|Done [0-9]+ runs" || true
 done

@@ -431,3 +431,21 @@ TEST(InventedSlices, RunStatesTheResamplingInItsSummaryRunJsonAndReport) {
   ASSERT_EQ(test::run_sawyer(run_args(small_ct(), dir / "out2", dir.path()), &out), 0) << out;
   EXPECT_FALSE(mentions(out, "resampled")) << out;
 }
+
+TEST(Interrupt, ABatchTimeoutLeavesNoTemporaryOutput) {
+  test::TempDir dir;
+  short_pattern(dir.path());
+  // One log's run takes over a second (scan 0.3 s, saw, then the report in its temporary
+  // folder); 0.7 s stops it, by SIGTERM, most likely while the report is drawn.
+  test::write_file(dir / "m.csv", "ct,id,pattern\n" + small_ct().string() + ",slow," +
+                                      (dir / "short_2ex.json").string() + "\n");
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("batch " + test::quoted(dir / "m.csv") + " -o " +
+                                 test::quoted(dir / "b") + " --no-register --timeout 0.7",
+                             &out),
+            2)
+      << out;
+  EXPECT_TRUE(mentions(out, "slow FAILED")) << out;
+  EXPECT_FALSE(fs::exists(dir / "b" / "slow"));
+  EXPECT_EQ(leftovers(dir / "b", "slow"), std::vector<std::string>{});
+}

@@ -190,6 +190,10 @@ int run(const BatchCli& c) {
   std::vector<JobResult> results = run_jobs(jobs, po);
   const double total_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // A run stopped by --timeout removes its temporary output itself (SIGTERM); one that had to be
+  // killed outright cannot, so its leftovers are swept here, under the run folder's lock.
+  for (size_t i = 0; i < rows.size(); ++i)
+    if (!results[i].ok()) (void)OutputLock::lock_only(out_dir / rows[i]->id, "");
 
   // The value of each good log, read back from the register its run wrote to.
   std::optional<LogRegister> reg;
