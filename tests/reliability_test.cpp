@@ -449,3 +449,25 @@ TEST(Interrupt, ABatchTimeoutLeavesNoTemporaryOutput) {
   EXPECT_FALSE(fs::exists(dir / "b" / "slow"));
   EXPECT_EQ(leftovers(dir / "b", "slow"), std::vector<std::string>{});
 }
+
+TEST(DataLoss, ABatchFolderIsRecognisedByItsOwnFilesOnly) {
+  test::TempDir dir;
+  // A user's folder with a logs/ of its own is not a batch folder.
+  test::write_file(dir / "project" / "logs" / "field_notes.txt", "notes\n");
+  test::write_file(dir / "m.csv", "ct,id\n" + small_ct().string() + ",good\n");
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("batch " + test::quoted(dir / "m.csv") + " -o " +
+                                 test::quoted(dir / "project") + " --no-register",
+                             &out),
+            1)
+      << out;
+  EXPECT_TRUE(mentions(out, "not empty")) << out;
+  EXPECT_EQ(listing(dir / "project"), (std::vector<std::string>{"logs/field_notes.txt:6",
+                                                                "logs:dir"}));
+  // A manifest kept in the batch's own folder is fine: the batch never replaces the folder.
+  test::write_file(dir / "b" / "m.csv", "ct,id\n" + small_ct().string() + ",good\n");
+  fs::create_directories(dir / "b" / "logs");
+  test::write_file(dir / "b" / "logs" / "old.err", "");
+  EXPECT_TRUE(is_sawyer_output(dir / "b", OutputKind::kBatchFolder));
+  EXPECT_FALSE(is_sawyer_output(dir / "project", OutputKind::kBatchFolder));
+}

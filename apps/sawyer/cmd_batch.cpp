@@ -138,16 +138,14 @@ int run(const BatchCli& c) {
   }
   // Several shards write one batch folder at once (each its own batch_<i>.csv), so there is no
   // lock on it; but it must be empty, new, or a batch folder, and each log's `sawyer run`
-  // guards and locks its own <dir>/<id>.
-  if (Status st = check_output({c.output, OutputKind::kBatchFolder, {c.manifest}, "-o"}); !st)
+  // guards and locks its own <dir>/<id>. The batch never replaces the folder whole, so a
+  // manifest kept in it is fine.
+  if (Status st = check_output({c.output, OutputKind::kBatchFolder, {}, "-o"}); !st)
     return fail(st.error());
   const fs::path out_dir = fs::absolute(c.output);
-  std::error_code ec;
-  fs::create_directories(out_dir / "logs", ec);
-  if (ec) return fail(Error(out_dir.string(), "cannot create folder: " + ec.message()));
 
   // Open (and create) the register before starting anything: a bad db file should stop the
-  // batch once, not fail every log.
+  // batch once, not fail every log (and leave no batch folder behind).
   fs::path db;
   if (!c.no_register) {
     Result<fs::path> db_path = register_path(c.db);
@@ -156,6 +154,9 @@ int run(const BatchCli& c) {
     Result<LogRegister> reg = LogRegister::open(db);
     if (!reg) return fail(reg.error());
   }
+  std::error_code ec;
+  fs::create_directories(out_dir / "logs", ec);
+  if (ec) return fail(Error(out_dir.string(), "cannot create folder: " + ec.message()));
 
   std::vector<const ManifestRow*> rows;
   for (const ManifestRow& r : manifest.value().rows)

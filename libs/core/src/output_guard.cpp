@@ -100,12 +100,19 @@ bool is_sawyer_output(const fs::path& dir, OutputKind kind) {
       return file_mentions(dir / "sawyer_maps.json", "\"format\"") ||
              file_mentions(dir / "float_maps.json", "\"sawyer-float-maps/");
     case OutputKind::kBatchFolder: {
-      if (fs::is_directory(dir / "logs", ec)) return true;
+      // A batch_<i>.csv, or a logs/ holding nothing but the runs' .out/.err files: a folder of
+      // the user's that merely has a logs/ sub-folder is not a batch folder.
       for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
         const std::string n = it->path().filename().string();
         if (n.starts_with("batch_") && n.ends_with(".csv")) return true;
       }
-      return false;
+      if (!fs::is_directory(dir / "logs", ec)) return false;
+      for (fs::directory_iterator it(dir / "logs", ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string n = it->path().filename().string();
+        if (!it->is_regular_file(ec) || !(n.ends_with(".out") || n.ends_with(".err")))
+          return false;
+      }
+      return !ec;
     }
     case OutputKind::kFile:
       return fs::is_regular_file(dir, ec);

@@ -551,7 +551,8 @@ Result<fs::path> register_path(const std::string& db_option, const std::string& 
   if (!db_option.empty()) return fs::path(db_option);
   fs::path p = default_register_path();
   if (p.empty())
-    return Error("log register", "HOME is not set, so there is no default register; give " +
+    return Error("log register", "none of SAWYER_DB, XDG_DATA_HOME and HOME is set, so there is "
+                                 "no default register; give " +
                                      option + " FILE or set SAWYER_DB (or pass --no-register)");
   return p;
 }
