@@ -127,6 +127,59 @@ std::string error_after(const std::function<void(Json&)>& edit) {
   return r.error().message();
 }
 
+// The scanner frame (docs/formats.md): optional; written and read back bit-exact; a file
+// without it loads with no frame (identity at 0); a bad frame is refused naming the key.
+TEST(LogJson, ScannerFrameRoundTripsAndIsOptional) {
+  LogModel log = awkward_log();
+  EXPECT_FALSE(Json::parse(log_to_json(log)).contains("scanner_frame"));
+  Result<LogModel> old = log_from_json(log_to_json(log));
+  ASSERT_TRUE(old) << old.error().message();
+  EXPECT_FALSE(old.value().scanner_frame.has_value());
+
+  ScannerFrame f;
+  f.origin_mm = {-204.8, -204.8 + 1.0 / 3, 1234.5};
+  f.row_dir = {-1, 0, 0};
+  f.col_dir = {0, 1, 0};
+  f.z0_mm = 1234.5 + 0.1;
+  f.z_dir = -1;
+  place_in_scanner_frame(log, {-204.8, 0.25}, f);
+  const std::string text = log_to_json(log);
+  Result<LogModel> back = log_from_json(text);
+  ASSERT_TRUE(back) << back.error().message();
+  ASSERT_TRUE(back.value().scanner_frame.has_value());
+  const ScannerFrame& g = *back.value().scanner_frame;
+  EXPECT_EQ(g.origin_mm, f.origin_mm);
+  EXPECT_EQ(g.row_dir, f.row_dir);
+  EXPECT_EQ(g.col_dir, f.col_dir);
+  EXPECT_EQ(g.z0_mm, f.z0_mm);
+  EXPECT_EQ(g.z_dir, f.z_dir);
+  EXPECT_EQ(g.scanner_z(10), 1234.6 - 10);
+  EXPECT_EQ(back.value().stem.pith[0], log.stem.pith[0]);
+  EXPECT_EQ(log_to_json(back.value()), text);
+
+  using ::testing::HasSubstr;
+  const auto bad = [&](const std::function<void(Json&)>& edit) {
+    Json j = Json::parse(text);
+    edit(j);
+    Result<LogModel> r = log_from_json(j.dump());
+    return r ? std::string("(accepted)") : r.error().message();
+  };
+  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["z_dir"] = 0.5; }),
+              HasSubstr("scanner_frame.z_dir: 0.5 must be 1 or -1"));
+  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["row_dir"] = {2, 0, 0}; }),
+              HasSubstr("scanner_frame.row_dir: (2, 0, 0) is not a unit vector"));
+  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["col_dir"] = {1, 0, 0}; }),
+              HasSubstr("scanner_frame.col_dir: is not perpendicular to row_dir"));
+  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["origin_mm"] = {0, 0}; }),
+              HasSubstr("scanner_frame.origin_mm: has 2 values, expected 3"));
+  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["z0_mm"] = 1e9; }),
+              HasSubstr("scanner_frame.z0_mm: 1e+09 mm is outside -100000 to 100000 mm"));
+  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"].erase("z0_mm"); }),
+              HasSubstr("scanner_frame.z0_mm: missing key"));
+  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"] = 3; }),
+              HasSubstr("scanner_frame: expected an object"));
+}
+
 TEST(LogJson, MalformedFilesNameTheKeyAndTheProblem) {
   using ::testing::HasSubstr;
   EXPECT_THAT(error_after([](Json& j) { j.erase("format"); }), HasSubstr("format: missing key"));

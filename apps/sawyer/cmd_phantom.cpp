@@ -23,6 +23,7 @@ struct PhantomCli {
   ct::PhantomOptions o;
   std::optional<double> from_mm, to_mm, rescale_intercept;
   bool no_bed = false;
+  std::string moisture = "green";
 };
 
 int fail(const Error& e) {
@@ -37,6 +38,13 @@ int run(const PhantomCli& c) {
   o.from_mm = c.from_mm;
   o.to_mm = c.to_mm;
   o.bed = !c.no_bed;
+  if (c.moisture == "green") {
+    o.moisture = ct::Moisture::kGreen;
+  } else if (c.moisture == "dried") {
+    o.moisture = ct::Moisture::kDried;
+  } else {
+    return fail(Error("--moisture", "unknown state '" + c.moisture + "' (green, dried)"));
+  }
   if (Status st = o.validate(); !st) return fail(st.error());
 
   namespace fs = std::filesystem;
@@ -75,6 +83,49 @@ int run(const PhantomCli& c) {
             << " x " << g.height << " at " << g.spacing_x << " mm, " << o.slice_spacing_mm
             << " mm spacing, truth/ beside): " << sum.value().brief_report() << "\n";
   return 0;
+}
+
+// The condition space (docs/phantom.md "Condition space"); PhantomOptions::validate checks
+// the ranges, so that the library and the command refuse the same values.
+void add_condition_options(CLI::App* cmd, PhantomCli& c) {
+  ct::PhantomOptions& o = c.o;
+  cmd->add_option("--juvenile-ring-width-mm", o.juvenile_ring_width_mm,
+                  "ring width at the pith, changing to --ring-width-mm at --juvenile-radius-mm "
+                  "(0: all rings alike)");
+  cmd->add_option("--juvenile-radius-mm", o.juvenile_radius_mm,
+                  "pith distance where the rings reach their mature width")
+      ->capture_default_str();
+  cmd->add_option("--ring-contrast-hu", o.ring_contrast_hu,
+                  "ring contrast as a standard deviation, HU (0: from --ring-amplitude)");
+  cmd->add_option("--latewood-fraction", o.latewood_fraction,
+                  "dense latewood share of a ring (0: the original cubic profile)");
+  cmd->add_option("--density-drift-hu-per-m", o.density_drift_hu_per_m,
+                  "wood CT numbers change by this per metre along the log");
+  cmd->add_option("--moisture", c.moisture, "green (wet sapwood) | dried (-600 HU throughout)")
+      ->capture_default_str();
+  cmd->add_option("--wet-pockets", o.wet_pockets, "irregular wet patches in the heartwood");
+  cmd->add_option("--hu-offset", o.hu_offset, "scanner calibration: reported = offset + slope HU");
+  cmd->add_option("--hu-slope", o.hu_slope, "scanner calibration slope")->capture_default_str();
+  cmd->add_option("--cupping-hu", o.cupping_hu,
+                  "beam hardening: the log's centre reads this much lower than its rim");
+  cmd->add_option("--metal-streak-hu", o.metal_streak_hu,
+                  "streaks from the clutter's steel, HU at the steel (needs --clutter)");
+  cmd->add_option("--window-centre-hu", o.window_centre_hu, "8-bit export: window centre, HU")
+      ->capture_default_str();
+  cmd->add_option("--window-width-hu", o.window_width_hu,
+                  "8-bit export (TIFF/PNG): window width, HU (0: 16-bit HU)");
+  cmd->add_option("--cracks", o.cracks, "radial cracks: heart checks and checks from the bark");
+  cmd->add_option("--crack-width-mm", o.crack_width_mm, "a crack's opening at its widest, mm")
+      ->capture_default_str();
+  cmd->add_option("--resin-pockets", o.resin_pockets, "resin pockets (dense lenses)");
+  cmd->add_option("--rot-pockets", o.rot_pockets, "rot (low-density columns) in the heartwood");
+  cmd->add_option("--compression-wood", o.compression_wood,
+                  "0-1: one side denser with wider rings");
+  cmd->add_option("--bark-missing", o.bark_missing, "patches without bark");
+  cmd->add_option("--bark-loose", o.bark_loose, "patches of bark standing off on an air gap");
+  cmd->add_option("--knot-bark-mm", o.knot_bark_mm, "bark ring encased around dead knots, mm")
+      ->capture_default_str();
+  cmd->add_option("--resin-knots", o.resin_knots, "share of dead knots that are resin-soaked");
 }
 
 }  // namespace
@@ -121,6 +172,8 @@ void add_phantom_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--drop-slices", o.drop_slices, "leave out this many random slices")
       ->capture_default_str();
   cmd->add_flag("--clutter", o.clutter, "add steel support bars and a chain");
+  cmd->add_flag("--second-log", o.second_log,
+                "a second log (the same model end for end) touching this one on the +x side");
   cmd->add_flag("--no-bed", c->no_bed, "leave out the scanner bed");
   cmd->add_option("--bed-gap-mm", o.bed_gap_mm,
                   "belt below the log's lowest point, mm (0: the log lies on it)")
@@ -128,6 +181,7 @@ void add_phantom_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--rescale-intercept", c->rescale_intercept,
                   "DICOM and image stacks: stored = HU - intercept (default: 0 for DICOM, "
                   "-1024 for TIFF/PNG; volume files always store HU)");
+  add_condition_options(cmd, *c);
   cmd->add_option("--threads", o.threads, "worker threads, 1-256 (default: all cores)")
       ->check(CLI::Range(1, 256));
   cmd->callback([c, &run_out]() { run_out = [c]() { return run(*c); }; });

@@ -80,7 +80,15 @@ Json run_json(const RunCli& c, const ScanJob& scan, const std::string& source,
                        {"source_slices", zr.source_slices},
                        {"invented_slices", zr.invented_slices},
                        {"gaps", zr.gaps},
-                       {"widest_gap_mm", zr.widest_gap_mm}};
+                       {"widest_gap_mm", zr.widest_gap_mm},
+                       {"widest_gap_z0_mm", zr.widest_gap_z0}};
+  // log.json's x, y are the scanner's; heights go back to its z through this (docs/formats.md).
+  if (const auto& f = scan.log.scanner_frame)
+    j["scanner_frame"] = {{"origin_mm", {f->origin_mm.x, f->origin_mm.y, f->origin_mm.z}},
+                          {"row_dir", {f->row_dir.x, f->row_dir.y, f->row_dir.z}},
+                          {"col_dir", {f->col_dir.x, f->col_dir.y, f->col_dir.z}},
+                          {"z0_mm", f->z0_mm},
+                          {"z_dir", f->z_dir}};
   j["scan_checksum"] = checksum;
   j["slices"] = scan.stem.slices.size();
   j["knots"] = scan.log.knots.size();

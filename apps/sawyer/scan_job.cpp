@@ -10,6 +10,7 @@
 #include <string>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/ct/scanner_frame.h"
 #include "sawyer/maps/float_maps.h"
 #include "sawyer/maps/published_maps.h"
 #include "sawyer/model/log_json.h"
@@ -21,7 +22,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // A slice as an 8-bit image (window -1000..+500 HU) with the stem drawn on it: outer contour
-// green, heartwood border yellow, pith a red cross. Pixel (col, row) is (x / sx, y / sy).
+// green, heartwood border yellow, pith a red cross. Pixel (col, row) is (x / sx, y / sy) in the
+// scan's image axes (rows along the scanner's +x); the label gives the pith in the scanner frame
+// (log.json's x, y) and the height both from the first slice and as the scanner's z.
 cv::Mat qa_image(const ct::Slice& s, const ct::VolumeGeometry& g, const ct::StemSliceRecord& r) {
   cv::Mat grey(s.height, s.width, CV_8UC1);
   for (int row = 0; row < s.height; ++row)
@@ -51,10 +54,14 @@ cv::Mat qa_image(const ct::Slice& s, const ct::VolumeGeometry& g, const ct::Stem
   draw(r.contour.radius, r.contour.valid, cv::Scalar(0, 220, 0));
   if (r.heartwood.present) draw(r.heartwood.radius, r.heartwood.valid, cv::Scalar(0, 220, 255));
   cv::drawMarker(img, to_px(r.pith.x, r.pith.y), cv::Scalar(0, 0, 255), cv::MARKER_CROSS, 12, 2);
-  char text[96];
-  std::snprintf(text, sizeof text, "z %.1f mm  pith (%.1f, %.1f) mm", r.z, r.pith.x, r.pith.y);
-  cv::putText(img, text, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
-              cv::LINE_AA);
+  char text[2][96];
+  std::snprintf(text[0], sizeof text[0], "z %.1f mm (scanner z %.1f mm)", r.z,
+                g.origin.z + (g.slice_dir.z < 0 ? -r.z : r.z));
+  std::snprintf(text[1], sizeof text[1], "pith (%.1f, %.1f) mm, scanner frame",
+                r.pith.x + g.origin.x, r.pith.y + g.origin.y);
+  for (int line = 0; line < 2; ++line)
+    cv::putText(img, text[line], {8, 20 + 18 * line}, cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   return img;
 }
 
@@ -171,8 +178,12 @@ std::string knot_table(const ct::KnotScan& k) {
 
 }  // namespace
 
+// The scan pass measures in the slice's own axes; turned here so that they are the scanner's
+// (oblique scans are refused before anything is written).
 Result<std::unique_ptr<ct::SliceSource>> open_scan(const ScanJobOptions& c) {
-  return ct::open_ct(c.input, to_open_options(c.ct));
+  auto opened = ct::open_ct(c.input, to_open_options(c.ct));
+  if (!opened) return opened.error();
+  return ct::to_scanner_axes(std::move(opened).value(), c.input);
 }
 
 Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
@@ -182,8 +193,10 @@ Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
     if (!o) return o.error();
     opened = std::move(o.value());
   }
+  auto turned = ct::to_scanner_axes(std::move(opened), c.input);  // a no-op after open_scan()
+  if (!turned) return turned.error();
   ScanJob job;
-  job.source = std::move(opened);
+  job.source = std::move(turned).value();
   ct::SliceSource& src = *job.source;
   job.volume = std::make_unique<ct::LogVolume>(ct::LogVolume::empty_like(src.geometry()));
   ct::StemScanOptions o;
@@ -210,6 +223,9 @@ Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
   log.source = "sawyer scan of " + name + " (" + src.description() + ")";
   log.stem = job.stem.stem;
   log.knots = job.knots.knots;
+  // The passes measured from pixel (0, 0); log.json holds the scanner's x, y (docs/formats.md).
+  const ct::VolumeGeometry& g = src.geometry();
+  place_in_scanner_frame(log, {g.origin.x, g.origin.y}, ct::scanner_frame_of(g));
   return job;
 }
 

@@ -1565,6 +1565,7 @@ Result<std::unique_ptr<SliceSource>> build_source(const fs::path& folder, const 
   g.origin = keyed.front().position;
   g.orientation = {orient.row.x, orient.row.y, orient.row.z,
                    orient.col.x, orient.col.y, orient.col.z};
+  g.slice_dir = orient.normal;  // the slices were ordered along it
   g.rescale_slope = slices.front().slope;
   g.rescale_intercept = slices.front().intercept;
   g.bits_stored = ref.bits_stored;

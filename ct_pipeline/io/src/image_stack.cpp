@@ -1179,7 +1179,12 @@ Result<std::unique_ptr<SliceSource>> open_stack(const fs::path& path, const Open
                             sidecar_name + " beside the slices or give --slice-spacing (mm)");
   }
   if (sc.origin) g.origin = *sc.origin;
-  if (sc.orientation) g.orientation = *sc.orientation;
+  if (sc.orientation) {
+    g.orientation = *sc.orientation;
+    // As in DICOM, the slices follow the normal row × column.
+    const auto& o = g.orientation;
+    g.slice_dir = cross(Vec3{o[0], o[1], o[2]}, Vec3{o[3], o[4], o[5]}).normalized();
+  }
 
   if (Status st = resolve_rescale(options, s, tags, layout, first, *src); !st) return st.error();
   g.rescale_slope = src->slope_;

@@ -236,10 +236,10 @@ Result<StackSidecar> parse_stack_sidecar(const std::string& text, const std::str
 }
 
 Result<StackSidecar> read_stack_sidecar(const fs::path& file) {
-  Result<std::string> text = read_text_file(file);
+  Result<std::string> text = read_text_file(file, 64u << 20);
+  // A sidecar is a few hundred bytes plus z_mm (64 MiB is millions of slices): anything bigger
+  // is not one, and is refused before it is read.
   if (!text) return text.error();
-  // A sidecar is a few hundred bytes plus z_mm; anything huge is not one.
-  if (text.value().size() > (64u << 20)) return Error(file.string(), "too large for a sidecar");
   return parse_stack_sidecar(text.value(), file.string());
 }
 

@@ -1150,6 +1150,7 @@ Result<std::unique_ptr<SliceSource>> open_volume(const fs::path& file, const Ope
              (src->extent_[2] * h.spacing[1]) * h.axis[1] +
              (src->extent_[4] * h.spacing[2]) * h.axis[2];
   g.orientation = {h.axis[0].x, h.axis[0].y, h.axis[0].z, h.axis[1].x, h.axis[1].y, h.axis[1].z};
+  g.slice_dir = h.axis[2];
   if (std::abs(dot(h.axis[0], h.axis[1])) > 1e-3)
     src->notes_.push_back("row and column directions are not perpendicular");
   // Before the first slice is read: sizes, field of view, extent and origin within the limits.

@@ -24,8 +24,9 @@ constexpr double kDeg = kPi / 180.0;
 constexpr double kTiltLayerStep = 0.25;
 // Width of the heartwood/sapwood transition (the moisture gradient of the intermediate zone).
 constexpr double kHeartTransitionMm = 4.0;
-// Thickness of the bark ring encased around dead knots.
-constexpr double kKnotBarkMm = 1.0;
+// Compression wood at full strength: this much denser on its side, and rings this much wider.
+constexpr double kCompressionHu = 150.0;
+constexpr double kCompressionWidth = 0.6;
 // Default bark thickness when the model has none: a share of the radius (Nordic softwood logs
 // carry 1.5-3 % of the radius as bark).
 constexpr double kDefaultBarkShare = 0.02;
@@ -44,17 +45,48 @@ double smoothstep(double e0, double e1, double x) {
 }
 
 // Density within one annual ring, phase 0 at the ring's start (earlywood) to 1 at its end: low
-// through the earlywood, rising steeply into the latewood, dropping back at the ring border
-// (the drop is spread over the last 10 % of the ring to keep point sampling from aliasing).
-// Range 0..1; kRingProfileMean is its mean, so the modulation averages to zero over a ring.
-double ring_profile(double phase) {
-  if (phase < 0.9) {
-    const double u = phase / 0.9;
+// through the earlywood, rising gradually (cubic) into the latewood, which with a latewood share
+// `lw` stays dense for that share of the ring, dropping back sharply at the ring border (the
+// drop is spread over the last 10 % of the ring to keep point sampling from aliasing). Range
+// 0..1; kRingProfileMean is its mean for lw = 0 (the original profile), so the modulation
+// averages to zero over a ring.
+constexpr double kRingProfileMean = 0.9 / 4 + 0.05;
+double ring_profile_lw(double phase, double lw) {
+  const double u_l = 0.9 - lw;
+  if (phase < u_l) {
+    const double u = phase / u_l;
     return u * u * u;
   }
+  if (phase < 0.9) return 1.0;
   return (1.0 - phase) / 0.1;
 }
-constexpr double kRingProfileMean = 0.9 / 4 + 0.05;
+
+// Mean and standard deviation of a ring profile over one ring (fine quadrature).
+void ring_profile_stats(double lw, double* mean, double* sd) {
+  constexpr int kN = 20000;
+  double a = 0, b = 0;
+  for (int i = 0; i < kN; ++i) {
+    const double v = ring_profile_lw((i + 0.5) / kN, lw);
+    a += v;
+    b += v * v;
+  }
+  *mean = a / kN;
+  *sd = std::sqrt(std::max(0.0, b / kN - *mean * *mean));
+}
+
+// Weight of the compression-wood side at azimuth offset d from its centre: 1 on the centre line,
+// 0.5 at ±45°, none on the far half.
+double side_weight(double d) {
+  const double c = std::cos(d);
+  return c > 0 ? c * c : 0.0;
+}
+
+// Shortest form of a number for messages: 600, 0.3, -1e+300.
+std::string num(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
 
 std::string fmt(double v, int digits = 3) {
   std::ostringstream s;
@@ -93,8 +125,32 @@ const char* region_name(Region r) {
       return "bed";
     case Region::kClutter:
       return "clutter";
+    case Region::kWetPocket:
+      return "wet pocket";
+    case Region::kCrack:
+      return "crack";
+    case Region::kResinPocket:
+      return "resin pocket";
+    case Region::kRot:
+      return "rot";
   }
   return "?";
+}
+
+const char* moisture_name(Moisture m) { return m == Moisture::kDried ? "dried" : "green"; }
+
+HuTable dried_hu_table(const HuTable& green) {
+  // Dried wood at about 12 % moisture: heartwood and sapwood alike at ≈ 400 kg/m³; dry
+  // knotwood 650-800 kg/m³; dry bark 250-350 kg/m³.
+  HuTable h = green;
+  h.heartwood = -600;
+  h.sapwood = -600;
+  h.sound_knot = -280;
+  h.dead_knot = -320;
+  h.knot_bark = -680;
+  h.bark_inner = -650;
+  h.bark_outer = -720;
+  return h;
 }
 
 Status PhantomOptions::validate() const {
@@ -139,6 +195,51 @@ Status PhantomOptions::validate() const {
     return bad("--knot-noise", "must be 0-0.5, got " + fmt(knot_noise, 3));
   if (drop_slices < 0) return bad("--drop-slices", "must not be negative");
   if (threads < 0 || threads > 256) return bad("--threads", "must be 0 (auto) to 256");
+  return validate_conditions();
+}
+
+// The condition space's options: each range covers the realistic one of docs/phantom.md with
+// room to spare, and refuses what cannot be drawn.
+Status PhantomOptions::validate_conditions() const {
+  auto range = [](const char* opt, double v, double lo, double hi, const char* unit = "") {
+    if (v >= lo && v <= hi) return Status::Ok();
+    return Status(Error(opt, num(v) + unit + " is outside " + num(lo) + " to " + num(hi) + unit));
+  };
+  auto count = [](const char* opt, int v, int hi) {
+    if (v >= 0 && v <= hi) return Status::Ok();
+    return Status(Error(opt, std::to_string(v) + " is outside 0-" + std::to_string(hi)));
+  };
+  const Status checks[] = {
+      juvenile_ring_width_mm == 0
+          ? Status::Ok()
+          : range("--juvenile-ring-width-mm", juvenile_ring_width_mm, 0.3, 30, " mm"),
+      range("--juvenile-radius-mm", juvenile_radius_mm, 1, 1000, " mm"),
+      range("--ring-contrast-hu", ring_contrast_hu, 0, 500, " HU"),
+      range("--latewood-fraction", latewood_fraction, 0, 0.8),
+      range("--density-drift-hu-per-m", density_drift_hu_per_m, -200, 200, " HU/m"),
+      count("--wet-pockets", wet_pockets, 50),
+      range("--hu-offset", hu_offset, -500, 500, " HU"),
+      range("--hu-slope", hu_slope, 0.5, 2),
+      range("--cupping-hu", cupping_hu, 0, 500, " HU"),
+      range("--metal-streak-hu", metal_streak_hu, 0, 2000, " HU"),
+      metal_streak_hu > 0 && !clutter
+          ? Status(Error("--metal-streak-hu", "needs --clutter (the streaks come from its steel)"))
+          : Status::Ok(),
+      range("--window-centre-hu", window_centre_hu, -1024, 3071, " HU"),
+      window_width_hu == 0 ? Status::Ok()
+                           : range("--window-width-hu", window_width_hu, 10, 5000, " HU"),
+      count("--cracks", cracks, 50),
+      range("--crack-width-mm", crack_width_mm, 0.1, 20, " mm"),
+      count("--resin-pockets", resin_pockets, 200),
+      count("--rot-pockets", rot_pockets, 20),
+      range("--compression-wood", compression_wood, 0, 1),
+      count("--bark-missing", bark_missing, 50),
+      count("--bark-loose", bark_loose, 50),
+      range("--knot-bark-mm", knot_bark_mm, 0, 5, " mm"),
+      range("--resin-knots", resin_knots, 0, 1),
+  };
+  for (const Status& st : checks)
+    if (!st) return st;
   return Status::Ok();
 }
 
@@ -223,7 +324,48 @@ double Phantom::bark_thickness(double omega, double z, double R) const {
   const double v = 1 + 0.15 * std::sin(2 * omega + 0.7 + z / 900.0) +
                    0.08 * std::sin(5 * omega + 2.3 - z / 500.0) +
                    0.10 * std::sin(19 * omega + 3.0 * std::sin(z / 37.0));
-  return base * std::max(v, 0.3);
+  double b = base * std::max(v, 0.3);
+  for (const Defect& d : defects_) {
+    if (d.kind != "bark_missing" && d.kind != "bark_loose") continue;
+    if (z < d.z_min || z > d.z_max || std::abs(angle_diff(omega, d.omega)) > d.half_angle) continue;
+    b = d.kind == "bark_missing" ? 0.0 : b + d.width_mm;
+  }
+  return b;
+}
+
+double Phantom::bark_gap(double omega, double z) const {
+  for (const Defect& d : defects_) {
+    if (d.kind == "bark_loose" && z >= d.z_min && z <= d.z_max &&
+        std::abs(angle_diff(omega, d.omega)) <= d.half_angle)
+      return d.width_mm;
+  }
+  return 0;
+}
+
+double Phantom::rings_at(double t, double omega) const {
+  const PhantomOptions& o = options_;
+  if (o.juvenile_ring_width_mm == 0 && o.compression_wood == 0) return t * ring_count_;
+  // Rings up to nominal radius rho = t · R_ref with the width rising linearly from w_j at the
+  // pith to w_m at r_j: the integral of 1 / w.
+  const double rho = t * field_->reference_radius();
+  const double w_m = o.ring_width_mm;
+  double n;
+  if (o.juvenile_ring_width_mm == 0) {
+    n = rho / w_m;
+  } else {
+    const double w_j = o.juvenile_ring_width_mm, r_j = o.juvenile_radius_mm;
+    const double b = (w_m - w_j) / r_j;
+    auto ramp = [&](double x) {
+      return std::abs(b) < 1e-12 ? x / w_j : std::log1p(b * x / w_j) / b;
+    };
+    n = rho <= r_j ? ramp(rho) : ramp(r_j) + (rho - r_j) / w_m;
+  }
+  if (o.compression_wood > 0) {
+    for (const Defect& d : defects_)
+      if (d.kind == "compression_wood")
+        n /= 1 + kCompressionWidth * o.compression_wood * side_weight(angle_diff(omega, d.omega));
+  }
+  return n;
 }
 
 double Phantom::max_outer_radius(double z_lo, double z_hi) const {
@@ -288,9 +430,25 @@ Status Phantom::prepare() {
   fp.knot_noise = o.knot_noise;
   field_ = std::make_unique<WoodField>(log_, fp);
   ring_count_ = field_->reference_radius() / o.ring_width_mm;
+  if (o.juvenile_ring_width_mm > 0) ring_count_ = rings_at(1.0, 0.0);
   sub_slices_ = o.sub_slices > 0
                     ? o.sub_slices
                     : std::clamp(static_cast<int>(std::ceil(th / kSubSliceMm - 1e-9)), 1, 16);
+  hu_ = o.moisture == Moisture::kDried ? dried_hu_table(o.hu) : o.hu;
+  if (o.ring_contrast_hu > 0) {
+    double sd;
+    ring_profile_stats(o.latewood_fraction, &ring_mean_, &sd);
+    ring_amp_hu_ = o.ring_contrast_hu / sd;
+  } else {
+    ring_amp_hu_ = o.ring_amplitude * hu_.dry_wood_density;
+    if (o.latewood_fraction > 0) {
+      double sd;
+      ring_profile_stats(o.latewood_fraction, &ring_mean_, &sd);
+    }
+  }
+  if (o.latewood_fraction == 0) ring_mean_ = kRingProfileMean;
+  // Defects before anything that asks for the bark thickness (the field of view, the bed).
+  draw_defects();
 
   // Placement: M = Ry(tilt_y) · Rx(tilt_x) · Rz(roll).
   const Placement& pl = o.placement;
@@ -378,7 +536,9 @@ Status Phantom::prepare() {
   geometry_ = VolumeGeometry{};
   geometry_.width = geometry_.height = W;
   geometry_.spacing_x = geometry_.spacing_y = px;
-  geometry_.origin = {0, 0, 0};
+  // Where a scanner puts its image: centred on the isocentre (0, 0), the table at 1 m. Non-zero
+  // so that every consumer must honour the origin; truth/log.json is in the same frame.
+  geometry_.origin = {-0.5 * (W - 1) * px, -0.5 * (W - 1) * px, 1000.0};
   geometry_.bits_stored = 16;
   geometry_.pixel_signed = true;
   for (int i = 0, d = 0; i < n; ++i) {
@@ -470,6 +630,23 @@ Status Phantom::prepare() {
     }
   }
 
+  if (o.second_log) place_second_log();
+
+  // Metal streaks: six lines through each steel object, 30° apart with a jitter, from the seed.
+  if (o.metal_streak_hu > 0) {
+    Rng rng(stream_seed(o.seed, phantom_detail::kDefectStream, 8));
+    for (const ClutterObject& c : clutter_) {
+      MetalStreaks m;
+      m.centre = {c.centre.x, c.centre.y};
+      m.z_min = c.z_min;
+      m.z_max = c.z_max;
+      m.amplitude_hu = o.metal_streak_hu;
+      const double base = rng.uniform(0, kPi);
+      for (int k = 0; k < 6; ++k) m.angles.push_back(base + k * kPi / 6 + rng.uniform(-0.1, 0.1));
+      streaks_.push_back(std::move(m));
+    }
+  }
+
   // The scene without the log: air, and the bed, which is the same in every slice.
   base_.assign(static_cast<size_t>(W) * W, static_cast<float>(o.hu.air));
   if (has_bed_) {
@@ -480,6 +657,220 @@ Status Phantom::prepare() {
       }
   }
   return Status::Ok();
+}
+
+// Places the defects of the condition space from the seed, inside the scanned range so that a
+// short scan sees them. Each kind draws from its own stream.
+void Phantom::draw_defects() {
+  const PhantomOptions& o = options_;
+  const Stem& st = log_.stem;
+  auto rng_for = [&](int kind) {
+    return Rng(
+        stream_seed(o.seed, phantom_detail::kDefectStream, static_cast<std::uint64_t>(kind)));
+  };
+  // An ellipsoidal pocket at a share of the heartwood radius (heart = true) or of the radius.
+  auto pocket = [&](Rng& rng, const char* kind, bool heart, double share_lo, double share_hi,
+                    double rad_lo, double rad_hi, double tan_lo, double tan_hi, double len_lo,
+                    double len_hi) {
+    Defect d;
+    d.kind = kind;
+    d.omega = rng.uniform(0, kTwoPi);
+    d.z_mm = rng.uniform(from_, to_);
+    const double R = st.radius_at(d.omega, d.z_mm);
+    const double outer = heart ? heartwood_radius(d.omega, d.z_mm, R) : R;
+    d.r_mm = rng.uniform(share_lo, share_hi) * outer;
+    d.radial_mm = std::min(rng.uniform(rad_lo, rad_hi), std::max(1.0, 0.5 * outer));
+    d.tangential_mm = rng.uniform(tan_lo, tan_hi);
+    const double len = rng.uniform(len_lo, len_hi);
+    d.z_min = d.z_mm - len;
+    d.z_max = d.z_mm + len;
+    defects_.push_back(d);
+  };
+  {
+    // Wet patches of spruce heartwood: 10-30 mm across, 10-50 cm long.
+    Rng rng = rng_for(0);
+    for (int i = 0; i < o.wet_pockets; ++i)
+      pocket(rng, "wet_pocket", true, 0.3, 0.75, 5, 15, 8, 20, 50, 250);
+  }
+  {
+    // Rot: decayed columns in the heartwood near the pith (butt rot), 2-6 cm across.
+    Rng rng = rng_for(1);
+    for (int i = 0; i < o.rot_pockets; ++i)
+      pocket(rng, "rot", true, 0.0, 0.4, 10, 30, 10, 30, 100, 400);
+  }
+  {
+    // Resin pockets: lenses between rings, 2-5 mm thick, 1-3 cm wide, 2-8 cm long.
+    Rng rng = rng_for(2);
+    for (int i = 0; i < o.resin_pockets; ++i)
+      pocket(rng, "resin_pocket", false, 0.15, 0.9, 1, 2.5, 5, 15, 10, 40);
+  }
+  {
+    // Cracks, alternately heart checks (from the pith) and checks (from the bark).
+    Rng rng = rng_for(3);
+    for (int i = 0; i < o.cracks; ++i) {
+      Defect d;
+      d.kind = "crack";
+      d.omega = rng.uniform(0, kTwoPi);
+      d.z_mm = rng.uniform(from_, to_);
+      const double R = st.radius_at(d.omega, d.z_mm);
+      d.from_bark = i % 2 == 1;
+      if (d.from_bark) {
+        d.r_max = R + 1;  // open at the surface (the bark over it is cracked too)
+        d.r_min = R * (1 - rng.uniform(0.15, 0.35));
+      } else {
+        d.r_min = 0;
+        d.r_max = R * rng.uniform(0.25, 0.6);
+      }
+      d.r_mm = 0.5 * (d.r_min + d.r_max);
+      d.width_mm = o.crack_width_mm;
+      const double len = rng.uniform(100, 600);
+      d.z_min = d.z_mm - len;
+      d.z_max = d.z_mm + len;
+      defects_.push_back(d);
+    }
+  }
+  if (o.compression_wood > 0) {
+    // The lower side of a leaning stem: one side over the whole log.
+    Rng rng = rng_for(4);
+    Defect d;
+    d.kind = "compression_wood";
+    d.omega = rng.uniform(0, kTwoPi);
+    d.half_angle = 0.25 * kPi;  // where the side weight is 0.5
+    d.z_min = st.z_begin();
+    d.z_max = st.z_end();
+    d.z_mm = 0.5 * (d.z_min + d.z_max);
+    d.width_mm = kCompressionHu * o.compression_wood;  // the extra HU on the centre line
+    defects_.push_back(d);
+  }
+  for (int kind = 5; kind <= 6; ++kind) {
+    // Bark patches: missing (stripped in handling) or loose (standing off on an air gap).
+    Rng rng = rng_for(kind);
+    const int n = kind == 5 ? o.bark_missing : o.bark_loose;
+    for (int i = 0; i < n; ++i) {
+      Defect d;
+      d.kind = kind == 5 ? "bark_missing" : "bark_loose";
+      d.omega = rng.uniform(0, kTwoPi);
+      d.half_angle = rng.uniform(10, 35) * kDeg;
+      d.z_mm = rng.uniform(from_, to_);
+      const double len = rng.uniform(50, 300);
+      d.z_min = d.z_mm - len;
+      d.z_max = d.z_mm + len;
+      d.r_mm = st.radius_at(d.omega, d.z_mm);
+      if (kind == 6) d.width_mm = rng.uniform(1, 4);
+      defects_.push_back(d);
+    }
+  }
+  resin_knot_.assign(log_.knots.size(), 0);
+  if (o.resin_knots > 0) {
+    Rng rng = rng_for(7);
+    for (size_t i = 0; i < log_.knots.size(); ++i) {
+      const Knot& k = log_.knots[i];
+      if (rng.uniform() >= o.resin_knots || k.r_dead >= k.r_end) continue;
+      resin_knot_[i] = 1;
+      Defect d;
+      d.kind = "resin_knot";
+      d.knot_id = k.id;
+      d.omega = k.omega0;
+      d.z_mm = k.z0;
+      d.r_min = k.r_dead;
+      d.r_max = k.r_end;
+      d.r_mm = 0.5 * (k.r_dead + k.r_end);
+      defects_.push_back(d);
+    }
+  }
+}
+
+bool Phantom::in_crack(double r, double omega, double z) const {
+  for (const Defect& d : defects_) {
+    if (d.kind != "crack" || z <= d.z_min || z >= d.z_max || r < d.r_min || r > d.r_max) continue;
+    const double dw = angle_diff(omega, d.omega);
+    if (std::cos(dw) <= 0) continue;
+    const double open_r = d.from_bark ? d.r_max : d.r_min;
+    const double dz = (z - d.z_mm) / (0.5 * (d.z_max - d.z_min));
+    const double half = 0.5 * d.width_mm * (1 - std::abs(r - open_r) / (d.r_max - d.r_min)) *
+                        std::sqrt(std::max(0.0, 1 - dz * dz));
+    if (std::abs(r * std::sin(dw)) <= half) return true;
+  }
+  return false;
+}
+
+void Phantom::apply_pockets(double r, double omega, double z, double sap, double* v,
+                            Region* region) const {
+  for (size_t i = 0; i < defects_.size(); ++i) {
+    const Defect& d = defects_[i];
+    const bool wet = d.kind == "wet_pocket";
+    if (!wet && d.kind != "rot" && d.kind != "resin_pocket") continue;
+    if (z <= d.z_min || z >= d.z_max) continue;
+    const double dw = angle_diff(omega, d.omega);
+    const double u = (r * std::cos(dw) - d.r_mm) / d.radial_mm;
+    const double w = r * std::sin(dw) / d.tangential_mm;
+    const double h = (z - d.z_mm) / (0.5 * (d.z_max - d.z_min));
+    const double q = u * u + w * w + h * h;
+    if (q >= 1) continue;
+    if (wet) {
+      // An irregular outline: the radius wanders by ±25 % around the pocket and along it.
+      const double lobe = 1 + 0.25 * std::sin(3 * std::atan2(w, u) + 1.7 * i + z / 45.0);
+      if (q >= lobe * lobe) continue;
+      *v += (hu_.sapwood - hu_.heartwood) * (1 - sap);
+      *region = Region::kWetPocket;
+    } else if (d.kind == "rot") {
+      *v = hu_.rot;
+      *region = Region::kRot;
+    } else {
+      *v = hu_.resin;
+      *region = Region::kResinPocket;
+    }
+  }
+}
+
+Vec3 Phantom::second_to_log(const Vec3& s) const {
+  return {A_.x - (s.x - second_c_.x), A_.y - (s.y - second_c_.y), A_.z - (s.z - T_.z)};
+}
+
+Vec2 Phantom::second_pith(int i) const {
+  const double z2 = A_.z - (nominal_z_[i] - T_.z);
+  const Vec2 p = log_.stem.pith_at(z2);
+  return {second_c_.x - (p.x - A_.x), second_c_.y - (p.y - A_.y)};
+}
+
+// The second log beside the first on +x, at the height of A: as close as the two outlines
+// allow in every slice, so that they touch where they are closest (the first log's placement
+// without its tilt, which moves it by a few mm at most).
+void Phantom::place_second_log() {
+  const Stem& st = log_.stem;
+  const double roll = options_.placement.roll_deg * kDeg;
+  // How far a section reaches along scanner +x when the log frame is turned by `turn`: the
+  // largest (R + bark) · cos(omega + turn).
+  auto reach_x = [&](double z, double turn) {
+    double m = 0;
+    for (int k = 0; k < kLayerAngles; ++k) {
+      const double w = kTwoPi * k / kLayerAngles;
+      const double R = st.radius_at(w, z);
+      m = std::max(m, (R + bark_thickness(w, z, R)) * std::cos(w + turn));
+    }
+    return m;
+  };
+  double need = -1e300;
+  for (int i = 0; i < nominal_count(); ++i) {
+    const double z2 = A_.z - (nominal_z_[i] - T_.z);
+    if (z2 < st.z_begin() || z2 > st.z_end()) continue;
+    const double right1 = pith_[i].x + reach_x(pith_log_z_[i], roll);
+    // The second log's leftmost point, relative to C2, is where its log-frame x is largest (it
+    // is turned by π).
+    const double left2 = -(st.pith_at(z2).x - A_.x) - reach_x(z2, 0);
+    if (right1 - left2 > need) {
+      need = right1 - left2;
+      second_touch_ = i;
+    }
+  }
+  has_second_ = second_touch_ >= 0;
+  second_c_ = {need, T_.y};
+}
+
+float Phantom::calibrated(float v) const {
+  const PhantomOptions& o = options_;
+  if (o.hu_offset == 0 && o.hu_slope == 1) return v;
+  return static_cast<float>(o.hu_offset + o.hu_slope * v);
 }
 
 bool Phantom::ClutterShape::contains(const Vec3& p) const {
@@ -495,59 +886,79 @@ bool Phantom::ClutterShape::contains(const Vec3& p) const {
 
 // ---- CT numbers ------------------------------------------------------------------------------
 
-namespace {
-
 // The CT number of the log at a point, from its field sample and the heartwood radius and bark
 // thickness there. Shared by rendering (layers) and sample_point (exact heights).
-float material_hu(const LogModel& log, const PhantomOptions& o, double ring_count,
-                  const FieldSample& fs, float H, float B, Region* region) {
-  const HuTable& hu = o.hu;
+float Phantom::material_hu(const FieldSample& fs, double z, float H, float B,
+                           Region* region) const {
+  const HuTable& hu = hu_;
+  const PhantomOptions& o = options_;
   const float r = fs.r, R = fs.radius;
   if (r > R) {
     if (r > R + B) {
       *region = Region::kAir;
       return static_cast<float>(hu.air);
     }
+    const double gap = o.bark_loose > 0 ? bark_gap(fs.omega, z) : 0.0;
+    if (r - R < gap) {  // under loose bark
+      *region = Region::kAir;
+      return static_cast<float>(hu.air);
+    }
     *region = Region::kBark;
-    const double s = (r - R) / std::max(B, 1e-3f);
+    const double s =
+        gap == 0 ? (r - R) / std::max(B, 1e-3f) : (r - R - gap) / std::max(B - gap, 1e-3);
     return static_cast<float>(hu.bark_inner + (hu.bark_outer - hu.bark_inner) * s);
   }
+  if (o.cracks > 0 && in_crack(r, fs.omega, z)) {
+    *region = Region::kCrack;
+    return static_cast<float>(hu.air);
+  }
   double v;
-  if (fs.knot >= 0) {
-    const Knot& k = log.knots[fs.knot];
+  double sap = 0;
+  const bool knot = fs.knot >= 0;
+  if (knot) {
+    const Knot& k = log_.knots[fs.knot];
     if (fs.dead) {
       const double rho0 = 0.5 * k.diameter_at(std::min<double>(r, k.r_dead));
-      // Encased bark: the outer kKnotBarkMm of the dead knot's outline (the field's, with its
+      // Encased bark: the outer knot_bark_mm of the dead knot's outline (the field's, with its
       // outline noise, since knot_depth is measured against it).
-      if (fs.knot_depth >= 1.0 - kKnotBarkMm / std::max(rho0, 2 * kKnotBarkMm)) {
+      const double kb = o.knot_bark_mm;
+      if (kb > 0 && fs.knot_depth >= 1.0 - kb / std::max(rho0, 2 * kb)) {
         *region = Region::kKnotBark;
         return static_cast<float>(hu.knot_bark);
       }
       *region = Region::kDeadKnot;
-      v = hu.dead_knot;
+      v = resin_knot_[fs.knot] ? hu.resin_knot : hu.dead_knot;
     } else {
       *region = Region::kSoundKnot;
       v = hu.sound_knot;
     }
   } else {
-    const double s = smoothstep(H - 0.5 * kHeartTransitionMm, H + 0.5 * kHeartTransitionMm, r);
-    *region = s < 0.5 ? Region::kHeartwood : Region::kSapwood;
-    v = hu.heartwood + (hu.sapwood - hu.heartwood) * s;
+    sap = smoothstep(H - 0.5 * kHeartTransitionMm, H + 0.5 * kHeartTransitionMm, r);
+    *region = sap < 0.5 ? Region::kHeartwood : Region::kSapwood;
+    v = hu.heartwood + (hu.sapwood - hu.heartwood) * sap;
+    if (o.compression_wood > 0) {
+      for (const Defect& d : defects_)
+        if (d.kind == "compression_wood")
+          v += d.width_mm * side_weight(angle_diff(fs.omega, d.omega));
+    }
   }
+  if (o.density_drift_hu_per_m != 0)
+    v += o.density_drift_hu_per_m * (z - 0.5 * (log_.stem.z_begin() + log_.stem.z_end())) / 1000;
   // Annual rings: the dry wood substance is denser in the latewood. The phase follows the
   // field's t, so the rings bend around knots exactly as in the renderer.
-  const double t = std::max(0.0f, fs.t) * ring_count;
-  v +=
-      o.ring_amplitude * hu.dry_wood_density * (ring_profile(t - std::floor(t)) - kRingProfileMean);
+  const double t = rings_at(std::max(0.0f, fs.t), fs.omega);
+  v += ring_amp_hu_ * (ring_profile_lw(t - std::floor(t), o.latewood_fraction) - ring_mean_);
+  if (!knot && (o.wet_pockets > 0 || o.rot_pockets > 0 || o.resin_pockets > 0))
+    apply_pockets(r, fs.omega, z, sap, &v, region);
+  // Beam hardening: the centre of the section reads lower than its rim.
+  if (o.cupping_hu > 0) v -= o.cupping_hu * std::max(0.0, 1.0 - (r / R) * (r / R));
   return static_cast<float>(v);
 }
 
-}  // namespace
-
 float Phantom::log_hu(const Layer& layer, double x, double y, Region* region) const {
   const FieldSample fs = layer.field.sample(x, y);
-  return material_hu(log_, options_, ring_count_, fs, table_at(layer.heart, fs.omega),
-                     table_at(layer.bark, fs.omega), region);
+  return material_hu(fs, layer.z, table_at(layer.heart, fs.omega), table_at(layer.bark, fs.omega),
+                     region);
 }
 
 bool Phantom::clutter_hu(const Vec3& s, float* hu) const {
@@ -583,27 +994,35 @@ bool Phantom::bed_hu(double x, double y, float* hu) const {
 PhantomPoint Phantom::sample_point(const Vec3& s) const {
   PhantomPoint out;
   out.log_point = to_log(s);
-  out.hu = static_cast<float>(options_.hu.air);
+  out.hu = calibrated(static_cast<float>(options_.hu.air));
   float ohu;
   if (clutter_hu(s, &ohu)) {
-    out.hu = ohu;
+    out.hu = calibrated(ohu);
     out.region = Region::kClutter;
     return out;
   }
   if (bed_hu(s.x, s.y, &ohu)) {
-    out.hu = ohu;
+    out.hu = calibrated(ohu);
     out.region = Region::kBed;
     return out;
   }
-  const Vec3& p = out.log_point;
   const Stem& st = log_.stem;
-  if (p.z < st.z_begin() || p.z > st.z_end()) return out;
-  const FieldSample fs = field_->sample(p);
-  out.field = fs;
-  out.heartwood_radius = static_cast<float>(heartwood_radius(fs.omega, p.z, fs.radius));
-  out.bark_mm = static_cast<float>(bark_thickness(fs.omega, p.z, fs.radius));
-  out.hu =
-      material_hu(log_, options_, ring_count_, fs, out.heartwood_radius, out.bark_mm, &out.region);
+  auto log_at = [&](const Vec3& p) {
+    if (p.z < st.z_begin() || p.z > st.z_end()) return;
+    const FieldSample fs = field_->sample(p);
+    out.field = fs;
+    out.heartwood_radius = static_cast<float>(heartwood_radius(fs.omega, p.z, fs.radius));
+    out.bark_mm = static_cast<float>(bark_thickness(fs.omega, p.z, fs.radius));
+    out.hu = calibrated(material_hu(fs, p.z, out.heartwood_radius, out.bark_mm, &out.region));
+  };
+  log_at(out.log_point);
+  if (out.region == Region::kAir && has_second_) {
+    const PhantomPoint first = out;
+    out.log_point = second_to_log(s);
+    out.second_log = true;
+    log_at(out.log_point);
+    if (out.region == Region::kAir) out = first;
+  }
   return out;
 }
 
@@ -614,6 +1033,7 @@ PhantomPoint Phantom::sample_point(const Vec3& s) const {
 struct Phantom::Renderer::Cache {
   std::map<long long, std::unique_ptr<Layer>> bank;
   std::vector<float> acc, tmp;
+  std::vector<char> first;  // second log: pixels the first log holds in this sub-slice
 };
 
 Phantom::Renderer::Renderer(const Phantom& phantom)
@@ -662,6 +1082,63 @@ void gaussian_blur(std::vector<float>& img, std::vector<float>& tmp, int W, int 
 }
 
 }  // namespace
+
+// Reconstruction streaks of the steel crossing slice height z, added to the W x W image.
+void Phantom::add_streaks(const Phantom& ph, double z, std::vector<float>& img) {
+  const int W = ph.options_.image_size;
+  const double px = ph.options_.pixel_mm;
+  for (const MetalStreaks& m : ph.streaks_) {
+    if (z < m.z_min || z > m.z_max) continue;
+    const double reach = 4 * m.sigma_mm;
+    for (size_t k = 0; k < m.angles.size(); ++k) {
+      const double ux = std::cos(m.angles[k]), uy = std::sin(m.angles[k]);
+      const double a = (k % 2 == 0 ? -1.0 : 1.0) * m.amplitude_hu;
+      for (int y = 0; y < W; ++y)
+        for (int x = 0; x < W; ++x) {
+          const double dx = x * px - m.centre.x, dy = y * px - m.centre.y;
+          const double d = std::abs(dx * uy - dy * ux);
+          if (d > reach) continue;
+          const double L = std::abs(dx * ux + dy * uy);
+          img[static_cast<size_t>(y) * W + x] += static_cast<float>(
+              a * std::exp(-0.5 * d * d / (m.sigma_mm * m.sigma_mm) - L / m.decay_mm));
+        }
+    }
+  }
+}
+
+// The second log in one sub-slice at scanner height zs, where the first log (which the caller
+// drew in the box x0..x1, y0..y1) left air or the bed.
+void Phantom::Renderer::render_second_log(double zs, int x0, int x1, int y0, int y1) {
+  const Phantom& ph = ph_;
+  const int W = ph.options_.image_size;
+  const double px = ph.options_.pixel_mm;
+  const Stem& st = ph.log_.stem;
+  const double z2 = ph.A_.z - (zs - ph.T_.z);
+  if (z2 < st.z_begin() || z2 > st.z_end()) return;
+  const std::unique_ptr<Layer> L = ph.make_layer(z2);
+  const Vec2 lp = L->field.pith();
+  const Vec2 c{ph.second_c_.x - (lp.x - ph.A_.x), ph.second_c_.y - (lp.y - ph.A_.y)};
+  const double ext = L->max_outer + 2 * px;
+  const int a0 = std::clamp(static_cast<int>(std::floor((c.x - ext) / px)), 0, W - 1);
+  const int a1 = std::clamp(static_cast<int>(std::ceil((c.x + ext) / px)), 0, W - 1);
+  const int b0 = std::clamp(static_cast<int>(std::floor((c.y - ext) / px)), 0, W - 1);
+  const int b1 = std::clamp(static_cast<int>(std::ceil((c.y + ext) / px)), 0, W - 1);
+  Cache& cc = *cache_;
+  for (int y = b0; y <= b1; ++y)
+    for (int x = a0; x <= a1; ++x) {
+      const size_t p = static_cast<size_t>(y) * W + x;
+      // Where the first log is, it stays (the two touch at most).
+      if (x >= x0 && x <= x1 && y >= y0 && y <= y1 && cc.first[p]) continue;
+      const Vec3 P = ph.second_to_log({x * px, y * px, zs});
+      const double dx = P.x - lp.x, dy = P.y - lp.y;
+      const double lim = L->max_outer + 1.0;
+      if (dx * dx + dy * dy > lim * lim) continue;
+      Region reg;
+      const float v = ph.log_hu(*L, P.x, P.y, &reg);
+      if (reg == Region::kAir) continue;
+      cc.acc[p] += v - ph.base_[p];
+    }
+}
 
 void Phantom::Renderer::render(int i, Slice& out) {
   const Phantom& ph = ph_;
@@ -722,6 +1199,7 @@ void Phantom::Renderer::render(int i, Slice& out) {
     const int y0 = std::clamp(static_cast<int>(std::floor((pc.y - ext) / px)), 0, W - 1);
     const int y1 = std::clamp(static_cast<int>(std::ceil((pc.y + ext) / px)), 0, W - 1);
 
+    if (ph.has_second_) c.first.assign(npix, 0);
     std::unique_ptr<Layer> flat;
     if (!tilted) {
       if (zl_pith < zb || zl_pith > ze) continue;  // beyond the log's end face: air
@@ -752,8 +1230,10 @@ void Phantom::Renderer::render(int i, Slice& out) {
         if (reg == Region::kAir) continue;
         const size_t p = static_cast<size_t>(y) * W + x;
         c.acc[p] += v - ph.base_[p];
+        if (ph.has_second_) c.first[p] = 1;
       }
     }
+    if (ph.has_second_) render_second_log(zs, x0, x1, y0, y1);
     // Clutter: steel objects crossing this sub-slice.
     for (const ClutterShape& s : ph.shapes_) {
       if (zs < s.z_min || zs > s.z_max) continue;
@@ -780,6 +1260,7 @@ void Phantom::Renderer::render(int i, Slice& out) {
   const float inv = 1.0f / static_cast<float>(n_sub);
   for (float& v : c.acc) v *= inv;
   gaussian_blur(c.acc, c.tmp, W, W, o.blur_px);
+  add_streaks(ph, ph.nominal_z_[i], c.acc);
   if (o.noise_hu > 0) {
     // Noise from (seed, slice) only: the same whichever thread renders the slice.
     Rng rng(stream_seed(o.seed, phantom_detail::kNoiseStream, static_cast<std::uint64_t>(i)));
@@ -791,6 +1272,9 @@ void Phantom::Renderer::render(int i, Slice& out) {
       if (p + 1 < npix) c.acc[p + 1] += static_cast<float>(sg * b);
     }
   }
+  // The scanner's calibration applies to what it measured, noise included.
+  if (o.hu_offset != 0 || o.hu_slope != 1)
+    for (float& v : c.acc) v = ph.calibrated(v);
   const float top = static_cast<float>(o.hu.max_hu);
   for (float& v : c.acc) v = std::min(v, top);
 

@@ -74,6 +74,8 @@ inline std::uint64_t stream_seed(std::uint64_t seed, std::uint64_t purpose, std:
 }
 
 inline constexpr std::uint64_t kNoiseStream = 1, kDropStream = 2, kClutterStream = 3;
+// Defects: one stream per kind (the index), so that asking for one kind moves no other.
+inline constexpr std::uint64_t kDefectStream = 4;
 
 }  // namespace phantom_detail
 }  // namespace sawyer::ct

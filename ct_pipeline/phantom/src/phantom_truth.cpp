@@ -140,7 +140,7 @@ LogModel Phantom::truth_log() const {
       heart[k] = section_radius(
           *this, st, pc, zs, ws, heartwood_radius(wl0, zl, R0),
           [&](double w, double z) { return heartwood_radius(w, z, st.radius_at(w, z)); });
-      bark_sum += bark_thickness(wl0, zl, R0);
+      bark_sum += bark_thickness(wl0, zl, R0) - bark_gap(wl0, zl);  // bark, not its air gap
     }
     // 0.1 µm is far below any CT's resolution and keeps truth/log.json compact.
     for (double& v : rad) v = std::round(v * 1e4) / 1e4;
@@ -214,6 +214,30 @@ std::string Phantom::truth_json(const std::string& output_info_json) const {
       {"bed", o.bed},
       {"clutter", o.clutter},
       {"drop_slices", o.drop_slices},
+      {"juvenile_ring_width_mm", o.juvenile_ring_width_mm},
+      {"juvenile_radius_mm", o.juvenile_radius_mm},
+      {"ring_contrast_hu", o.ring_contrast_hu},
+      {"ring_modulation_hu_peak_to_peak", ring_amp_hu_},
+      {"latewood_fraction", o.latewood_fraction},
+      {"density_drift_hu_per_m", o.density_drift_hu_per_m},
+      {"moisture", moisture_name(o.moisture)},
+      {"wet_pockets", o.wet_pockets},
+      {"hu_offset", o.hu_offset},
+      {"hu_slope", o.hu_slope},
+      {"cupping_hu", o.cupping_hu},
+      {"metal_streak_hu", o.metal_streak_hu},
+      {"second_log", o.second_log},
+      {"window_centre_hu", o.window_centre_hu},
+      {"window_width_hu", o.window_width_hu},
+      {"cracks", o.cracks},
+      {"crack_width_mm", o.crack_width_mm},
+      {"resin_pockets", o.resin_pockets},
+      {"rot_pockets", o.rot_pockets},
+      {"compression_wood", o.compression_wood},
+      {"bark_missing", o.bark_missing},
+      {"bark_loose", o.bark_loose},
+      {"knot_bark_mm", o.knot_bark_mm},
+      {"resin_knots", o.resin_knots},
   };
   json m = json::array();
   for (const auto& row : M_) m.push_back({row[0], row[1], row[2]});
@@ -228,7 +252,7 @@ std::string Phantom::truth_json(const std::string& output_info_json) const {
       {"T_scanner_mm", {T_.x, T_.y, T_.z}},
       {"M", m},
   };
-  const HuTable& h = o.hu;
+  const HuTable& h = hu_;  // the table used (dried when the log is)
   j["hu"] = {{"air", h.air},
              {"bark_inner", h.bark_inner},
              {"bark_outer", h.bark_outer},
@@ -241,7 +265,11 @@ std::string Phantom::truth_json(const std::string& output_info_json) const {
              {"bed_rail", h.bed_rail},
              {"steel", h.steel},
              {"dry_wood_density", h.dry_wood_density},
-             {"max_hu", h.max_hu}};
+             {"max_hu", h.max_hu},
+             {"resin", h.resin},
+             {"rot", h.rot},
+             {"resin_knot", h.resin_knot},
+             {"reported", "hu_offset + hu_slope x HU (the options' calibration)"}};
   j["geometry"] = {{"width", geometry_.width},
                    {"height", geometry_.height},
                    {"spacing_x", geometry_.spacing_x},
@@ -268,6 +296,63 @@ std::string Phantom::truth_json(const std::string& output_info_json) const {
                   {"z_min", c.z_min},
                   {"z_max", c.z_max}});
   j["clutter"] = cl;
+  json df = json::array();
+  for (const Defect& d : defects_) {
+    const Vec2 pc = log_.stem.pith_at(std::clamp(d.z_mm, log_.stem.z_begin(), log_.stem.z_end()));
+    const Vec3 c =
+        to_scanner({pc.x + d.r_mm * std::cos(d.omega), pc.y + d.r_mm * std::sin(d.omega), d.z_mm});
+    json e = {{"kind", d.kind},
+              {"r_mm", d.r_mm},
+              {"omega", d.omega},
+              {"z_mm", d.z_mm},
+              {"z_min", d.z_min},
+              {"z_max", d.z_max},
+              {"image_centre", {c.x, c.y, c.z}}};
+    if (d.radial_mm > 0) {
+      e["radial_mm"] = d.radial_mm;
+      e["tangential_mm"] = d.tangential_mm;
+    }
+    if (d.kind == "crack" || d.kind == "resin_knot") {
+      e["r_min"] = d.r_min;
+      e["r_max"] = d.r_max;
+    }
+    if (d.kind == "crack") e["from_bark"] = d.from_bark;
+    if (d.half_angle > 0) e["half_angle"] = d.half_angle;
+    if (d.width_mm > 0) e[d.kind == "compression_wood" ? "extra_hu" : "width_mm"] = d.width_mm;
+    if (d.knot_id >= 0) e["knot_id"] = d.knot_id;
+    df.push_back(e);
+  }
+  j["defects"] = df;
+  json ms = json::array();
+  for (const MetalStreaks& st : streaks_) {
+    json angles = json::array();
+    for (double a : st.angles) angles.push_back(a * 180 / kPi);
+    ms.push_back({{"centre", {st.centre.x, st.centre.y}},
+                  {"z_min", st.z_min},
+                  {"z_max", st.z_max},
+                  {"angles_deg", angles},
+                  {"amplitude_hu", st.amplitude_hu},
+                  {"sigma_mm", st.sigma_mm},
+                  {"decay_mm", st.decay_mm},
+                  {"rule", "first angle dark, then alternately bright and dark"}});
+  }
+  j["metal_streaks"] = ms;
+  if (has_second_) {
+    json piths = json::array();
+    for (int i = 0; i < nominal_count(); ++i) {
+      const Vec2 q = second_pith(i);
+      piths.push_back({q.x, q.y});
+    }
+    j["second_log"] = {{"rule",
+                        "log xy = A - (scanner xy - C2), log z = A.z - (scanner z - T.z): the same "
+                        "model end for end, touching the first log at touch_slice"},
+                       {"C2", {second_c_.x, second_c_.y}},
+                       {"touch_slice", second_touch_},
+                       {"pith", piths}};
+  }
+  j["defects_frame"] =
+      "log frame around the model's pith: r_mm, omega (rad), z_mm; image_centre, metal_streaks and "
+      "second_log: the image frame of slices[].pith (add geometry.origin for the scanner's)";
   json sl = json::array();
   for (int i = 0, d = 0; i < nominal_count(); ++i) {
     const bool drop = d < static_cast<int>(dropped_.size()) && dropped_[d] == i;
@@ -291,7 +376,14 @@ Status Phantom::write_truth(const fs::path& dir, const std::string& output_info_
   std::error_code ec;
   fs::create_directories(truth, ec);
   if (ec) return Error(truth.string(), "cannot create the folder: " + ec.message());
-  if (Status st = write_log_json(truth_log(), truth / "log.json"); !st) return st;
+  // truth/log.json in the frame `sawyer scan` writes log.json in: the scanner's x, y (the image
+  // axes plus the origin), heights from the first slice (docs/formats.md).
+  LogModel t = truth_log();
+  ScannerFrame frame;
+  frame.origin_mm = geometry_.origin;
+  frame.z0_mm = geometry_.origin.z;
+  place_in_scanner_frame(t, {geometry_.origin.x, geometry_.origin.y}, frame);
+  if (Status st = write_log_json(t, truth / "log.json"); !st) return st;
   return write_text_file_atomic(truth / "phantom.json", truth_json(output_info_json) + "\n");
 }
 

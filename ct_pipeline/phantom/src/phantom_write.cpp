@@ -67,6 +67,20 @@ Result<PhantomSummary> write_phantom(const Phantom& phantom, const fs::path& out
   }
   if (options.rescale_slope) wo.rescale_slope = *options.rescale_slope;
   if (options.rescale_intercept) wo.rescale_intercept = *options.rescale_intercept;
+  // Windowed 8-bit export: the window's HU range onto the 256 levels, stored as the rescale so
+  // that HU = stored × slope + intercept within half a level inside the window.
+  const PhantomOptions& po = phantom.options();
+  const bool windowed = po.window_width_hu > 0;
+  if (windowed) {
+    if (!stack)
+      return Error("--window-width-hu", "windowed 8-bit export writes TIFF or PNG stacks, not " +
+                                            std::string(format_name(options.format)));
+    if (options.rescale_slope || options.rescale_intercept)
+      return Error("--window-width-hu", "sets the rescale itself; leave out --rescale-intercept");
+    wo.bits_stored = 8;
+    wo.rescale_slope = po.window_width_hu / 255.0;
+    wo.rescale_intercept = po.window_centre_hu - 0.5 * po.window_width_hu;
+  }
   wo.series_description = "Sawyer phantom of " + phantom.log().id;
   wo.uid_seed = phantom.options().seed;
   nlohmann::json info = {{"format", format_name(options.format)},
@@ -74,6 +88,13 @@ Result<PhantomSummary> write_phantom(const Phantom& phantom, const fs::path& out
                          {"rescale_slope", wo.rescale_slope},
                          {"rescale_intercept", wo.rescale_intercept},
                          {"bits_stored", wo.bits_stored}};
+  if (windowed) {
+    info["window_centre_hu"] = po.window_centre_hu;
+    info["window_width_hu"] = po.window_width_hu;
+    info["window_rule"] =
+        "stored = round((HU - rescale_intercept) / rescale_slope), clipped to 0-255; "
+        "HU = stored x rescale_slope + rescale_intercept";
+  }
   const std::string info_text = info.dump();
   wo.before_commit = [&phantom, info_text](const fs::path& tmp) {
     return phantom.write_truth(tmp, info_text);

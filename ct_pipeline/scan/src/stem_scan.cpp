@@ -132,6 +132,19 @@ void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& rad
   valid = ok;
 }
 
+ScannerFrame scanner_frame_of(const VolumeGeometry& g) {
+  ScannerFrame f;
+  const VolumeGeometry::FileAxes file =
+      g.file_axes.value_or(VolumeGeometry::FileAxes{g.origin, g.orientation});
+  const auto& o = file.orientation;
+  f.origin_mm = file.origin;
+  f.row_dir = Vec3{o[0], o[1], o[2]}.normalized();
+  f.col_dir = Vec3{o[3], o[4], o[5]}.normalized();
+  f.z0_mm = g.origin.z;
+  f.z_dir = g.slice_dir.z < 0 ? -1.0 : 1.0;
+  return f;
+}
+
 Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
                            const std::function<void(int, int)>& progress) {
   const auto t0 = std::chrono::steady_clock::now();

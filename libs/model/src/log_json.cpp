@@ -232,6 +232,32 @@ Result<Knot> parse_knot(const Json& j, size_t index) {
   return k;
 }
 
+// "scanner_frame": {"origin_mm": [x, y, z], "row_dir": [..], "col_dir": [..], "z0_mm": z,
+// "z_dir": 1}; the values are range-checked by validate().
+Result<ScannerFrame> parse_scanner_frame(const Json& j) {
+  const std::string p = "scanner_frame.";
+  if (!j.is_object())
+    return Error("scanner_frame", std::string("expected an object, got ") + type_name(j));
+  ScannerFrame f;
+  for (auto [key, dst] : {std::pair{"origin_mm", &f.origin_mm}, std::pair{"row_dir", &f.row_dir},
+                          std::pair{"col_dir", &f.col_dir}}) {
+    Result<const Json*> m = member(j, p, key);
+    if (!m) return m.error();
+    Result<std::vector<double>> v = number_list(*m.value(), p + key);
+    if (!v) return v.error();
+    if (v.value().size() != 3)
+      return Error(p + key, "has " + std::to_string(v.value().size()) + " values, expected 3");
+    *dst = Vec3{v.value()[0], v.value()[1], v.value()[2]};
+  }
+  Result<double> z0 = number_at(j, p, "z0_mm");
+  if (!z0) return z0.error();
+  f.z0_mm = z0.value();
+  Result<double> zd = number_at(j, p, "z_dir");
+  if (!zd) return zd.error();
+  f.z_dir = zd.value();
+  return f;
+}
+
 }  // namespace
 
 std::string log_to_json(const LogModel& log) {
@@ -269,6 +295,16 @@ std::string log_to_json(const LogModel& log) {
     knots.push_back(std::move(kj));
   }
   j["knots"] = std::move(knots);
+  if (log.scanner_frame) {
+    const ScannerFrame& f = *log.scanner_frame;
+    Json fj;
+    fj["origin_mm"] = {f.origin_mm.x, f.origin_mm.y, f.origin_mm.z};
+    fj["row_dir"] = {f.row_dir.x, f.row_dir.y, f.row_dir.z};
+    fj["col_dir"] = {f.col_dir.x, f.col_dir.y, f.col_dir.z};
+    fj["z0_mm"] = f.z0_mm;
+    fj["z_dir"] = f.z_dir;
+    j["scanner_frame"] = std::move(fj);
+  }
   // One stem row or knot per line keeps the file diff-able and compact.
   std::ostringstream os;
   os << "{\n";
@@ -384,6 +420,13 @@ Result<LogModel> model_from_json(const Json& j) {
     Result<Knot> k = parse_knot((*knots.value())[i], i);
     if (!k) return k.error();
     log.knots.push_back(std::move(k).value());
+  }
+  Result<const Json*> frame = member(j, "", "scanner_frame", false);
+  if (!frame) return frame.error();
+  if (frame.value()) {
+    Result<ScannerFrame> f = parse_scanner_frame(*frame.value());
+    if (!f) return f.error();
+    log.scanner_frame = f.value();
   }
   Status v = validate(log);
   if (!v) return v.error();
@@ -501,10 +544,34 @@ Status validate_knot(const Knot& k, const std::string& w) {
   return Status::Ok();
 }
 
+// The frame's origin lies where heights may (the scanner's origin is metres from the log at
+// most); its directions are unit vectors at right angles, as a CT file's direction cosines are
+// (to the 1e-3 scanners round them to), and z_dir is a sign.
+Status validate_frame(const ScannerFrame& f) {
+  const std::string w = "scanner_frame.";
+  for (double v : {f.origin_mm.x, f.origin_mm.y, f.origin_mm.z})
+    if (Status st = check_range(v, w + "origin_mm", -lim::kMaxAbsZMm, lim::kMaxAbsZMm, "mm"); !st)
+      return st;
+  if (Status st = check_range(f.z0_mm, w + "z0_mm", -lim::kMaxAbsZMm, lim::kMaxAbsZMm, "mm"); !st)
+    return st;
+  for (auto [key, d] : {std::pair{"row_dir", f.row_dir}, std::pair{"col_dir", f.col_dir}}) {
+    if (!std::isfinite(d.norm()) || std::abs(d.norm() - 1) > 1e-3)
+      return Error(w + key, "(" + num(d.x) + ", " + num(d.y) + ", " + num(d.z) +
+                                ") is not a unit vector");
+  }
+  if (std::abs(dot(f.row_dir, f.col_dir)) > 1e-3)
+    return Error(w + "col_dir", "is not perpendicular to row_dir");
+  if (f.z_dir != 1.0 && f.z_dir != -1.0)
+    return Error(w + "z_dir", num(f.z_dir) + " must be 1 or -1");
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status validate(const LogModel& log) {
   if (Status st = validate_stem(log.stem); !st) return st;
+  if (log.scanner_frame)
+    if (Status st = validate_frame(*log.scanner_frame); !st) return st;
   if (log.knots.size() > static_cast<size_t>(lim::kMaxKnots))
     return Error("knots", std::to_string(log.knots.size()) + " knots, more than the " +
                               std::to_string(lim::kMaxKnots) + " allowed");

@@ -202,4 +202,9 @@ MaterialSample LogModel::material_at(const Vec3& p) const {
   return out;
 }
 
+void place_in_scanner_frame(LogModel& log, const Vec2& pixel0, const ScannerFrame& frame) {
+  for (Vec2& p : log.stem.pith) p = p + pixel0;
+  log.scanner_frame = frame;
+}
+
 }  // namespace sawyer

@@ -529,7 +529,12 @@ Rows position_rows(const Content& c) {
       {"Position", s.chosen_given ? "given by the operator" : "best found by the optimiser"},
       {"Rotation", fmt("%.1f° from horns-down", s.chosen.pos.rotation_deg)},
       {"Offset",
-       fmt2("x %+.1f mm, y %+.1f mm", s.chosen.pos.offset_x_mm, s.chosen.pos.offset_y_mm)},
+       fmt2("x %+.1f mm, y %+.1f mm", s.chosen.pos.offset_x_mm, s.chosen.pos.offset_y_mm) +
+           " from the pith line"},
+      // Which frame the log's coordinates (and so a saw's setting) are in.
+      {"Frame", c.run->log.scanner_frame
+                    ? fmt("scanner x, y; z from %.1f mm", c.run->log.scanner_frame->z0_mm)
+                    : std::string("log model (no scanner frame)")},
       {"Value", money(s.chosen.value, s.currency) + expected},
       {"Horns-down", ref(s.horns_down)},
       {"Horns-up", ref(s.horns_up)},

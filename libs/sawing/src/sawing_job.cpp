@@ -73,6 +73,26 @@ Json ranked_json(const RankedPosition& r) {
   return j;
 }
 
+// Which frame the positions and coordinates are in: offsets and rotation are relative to the
+// log (its mean pith line and horns), the log's x, y are the scanner's when the model came from
+// a CT scan (its scanner_frame, recorded here so a saw can be set from it).
+Json frame_json(const LogModel& log) {
+  Json j;
+  j["position"] =
+      "rotation_deg from horns down about the mean pith line; offset_x_mm, offset_y_mm from the "
+      "mean pith line in the turned cross-section (docs/sawing.md)";
+  j["coordinates"] = log.scanner_frame ? "scanner" : "log model";
+  if (log.scanner_frame) {
+    const ScannerFrame& f = *log.scanner_frame;
+    j["scanner_frame"] = {{"origin_mm", {f.origin_mm.x, f.origin_mm.y, f.origin_mm.z}},
+                          {"row_dir", {f.row_dir.x, f.row_dir.y, f.row_dir.z}},
+                          {"col_dir", {f.col_dir.x, f.col_dir.y, f.col_dir.z}},
+                          {"z0_mm", f.z0_mm},
+                          {"z_dir", f.z_dir}};
+  }
+  return j;
+}
+
 }  // namespace
 
 Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOutcome& out) {
@@ -93,6 +113,7 @@ Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOu
       {"offset_x_max_mm", o.offset_x_max_mm}, {"offset_x_step_mm", o.offset_x_step_mm},
       {"offset_y_max_mm", o.offset_y_max_mm}, {"offset_y_step_mm", o.offset_y_step_mm},
       {"sigma_rot_deg", o.sigma_rot_deg},     {"sigma_offset_mm", o.sigma_offset_mm}};
+  j["frame"] = frame_json(log);
   j["pattern_point_symmetric"] = r.symmetric;
   j["chosen"] = out.chosen_is_given() ? "given" : "best";
   j["best"] = ranked_json(r.best);

@@ -13,7 +13,10 @@
 //   }
 //
 // Frames (DESIGN.md 3): x along a row (column index), y down the rows (row index), both in mm in
-// the slice plane; z in mm along the log, 0 at the first slice, increasing with slice index.
+// the slice plane from the centre of pixel (0, 0); z in mm along the log, 0 at the first slice,
+// increasing with slice index. Where that lies in the scanner is `origin`, `orientation` and
+// `slice_dir`; to_scanner_axes() (scanner_frame.h) turns an axial scan so that x and y run along
+// the scanner's +x and +y, which the scan pass relies on.
 #pragma once
 
 #include <array>
@@ -59,6 +62,16 @@ struct VolumeGeometry {
   // Direction cosines of a row (x) and of a column (y) in the scanner frame, DICOM Image
   // Orientation (Patient) order.
   std::array<double, 6> orientation{1, 0, 0, 0, 1, 0};
+  // Scanner direction in which z (the slice index) grows: DICOM's slice normal row × column
+  // (slices are ordered along it), a volume's third axis, a stack's row × column.
+  Vec3 slice_dir{0, 0, 1};
+  // Set by to_scanner_axes() (scanner_frame.h) when it mirrored or transposed the slices: the
+  // file's own origin and orientation, which `origin` and `orientation` no longer are.
+  struct FileAxes {
+    Vec3 origin;
+    std::array<double, 6> orientation{1, 0, 0, 0, 1, 0};
+  };
+  std::optional<FileAxes> file_axes;
   // The stored value -> HU rescale the file declares (for reporting; slices come out in HU).
   // For DICOM with per-slice rescale these are the first slice's.
   double rescale_slope = 1.0;

@@ -89,6 +89,12 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
 // Re-expresses a closed contour given as radius per equally spaced azimuth around `from` as
 // radius per equally spaced azimuth around `to` (same count). Invalid entries stay invalid where
 // no valid neighbour covers them. Used after the pith is smoothed; exposed for tests.
+// The scanner frame of a source turned by to_scanner_axes() (or already along the axes): the
+// file's origin and row/column directions, and the scanner z of the first slice with the sign
+// of z along the scanner's z. place_in_scanner_frame(log, {g.origin.x, g.origin.y},
+// scanner_frame_of(g)) puts a model measured on the source into it.
+ScannerFrame scanner_frame_of(const VolumeGeometry& g);
+
 void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& radius,
                       std::vector<bool>& valid);
 

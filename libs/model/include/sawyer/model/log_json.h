@@ -7,7 +7,9 @@
 //             "pith": [[x, y], ...], "radius": [[r per angle], ...],
 //             "heartwood": [[...], ...] (optional), "bark_mm": [...] (optional) },
 //   "knots": [ { "id": 0, "z0": .., "a": .., "b": .., "omega0": .., "twist": .., "r_dead": ..,
-//                "r_end": .., "d_dead": .., "d_exp": .., "fit_rms_mm": .., "support": .. }, ... ]
+//                "r_end": .., "d_dead": .., "d_exp": .., "fit_rms_mm": .., "support": .. }, ... ],
+//   "scanner_frame": { "origin_mm": [x, y, z], "row_dir": [..], "col_dir": [..], "z0_mm": ..,
+//                      "z_dir": 1 }   (optional; absent: the identity at 0)
 // }
 //
 // Units: millimetres and radians. Numbers are written with enough digits to read back exactly.

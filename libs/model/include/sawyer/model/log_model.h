@@ -1,8 +1,9 @@
 // The log model: what the CT pipeline produces, the renderer draws, the sawing optimiser cuts
 // and the phantom turns back into CT (DESIGN.md section 4).
 //
-// Frames and units: millimetres and radians. Scanner frame x, y in the slice plane, z along the
-// log. Azimuth ω = atan2(y − pith_y, x − pith_x) in [0, 2π), counter-clockwise from +x seen
+// Frames and units: millimetres and radians. x, y are the CT scanner's x and y (mm, exactly as
+// the CT file places its pixels) in the slice plane; z runs along the log from the first slice
+// (docs/formats.md, "The scanner frame"); ScannerFrame maps z back to the scanner's z. Azimuth ω = atan2(y − pith_y, x − pith_x) in [0, 2π), counter-clockwise from +x seen
 // from +z. Pith distance r = horizontal distance from the pith at that height.
 //
 //   LogModel log = ...;
@@ -112,16 +113,42 @@ struct MaterialSample {
   bool heartwood = false;  // inside the heartwood radius (when the stem has one)
 };
 
+// Where the model lies in the CT scanner (log.json "scanner_frame", optional). The model's x
+// and y are the scanner's; its z starts at the first slice and runs along the slices, so the
+// scanner's z of a model height z is z0_mm + z_dir·z. The file's own origin and row/column
+// directions are kept as the CT file gave them, for the record (the scan mirrors or transposes
+// slices whose rows do not run along +x; docs/ct_input.md).
+struct ScannerFrame {
+  Vec3 origin_mm;       // scanner position of the centre of pixel (0, 0) of the first slice
+  Vec3 row_dir{1, 0, 0};  // the file's direction along a row (increasing column)
+  Vec3 col_dir{0, 1, 0};  // the file's direction down a column (increasing row)
+  double z0_mm = 0.0;   // scanner z of the model's z = 0 (the first slice)
+  double z_dir = 1.0;   // +1: z grows with the scanner's z; -1: against it
+
+  double scanner_z(double z) const { return z0_mm + z_dir * z; }
+  Vec3 to_scanner(const Vec3& p) const { return {p.x, p.y, scanner_z(p.z)}; }
+};
+
 struct LogModel {
   std::string id;       // e.g. "gran1_spruce"
   std::string species;  // "spruce", "pine", ... free text
   std::string source;   // provenance: where the model came from
   Stem stem;
   std::vector<Knot> knots;
+  // Absent for models that did not come from a CT scan (or older log.json files): then the
+  // frame is the identity at 0 (x, y, z as stored).
+  std::optional<ScannerFrame> scanner_frame;
 
   // What is at point p. Inside a knot means: within half the knot's diameter of its axis
   // point at the same pith distance (the paper's pseudo-nearest point), with r ≤ r_end.
   MaterialSample material_at(const Vec3& p) const;
 };
+
+// Moves a model measured in a CT image's own axes (x = column·pixel, y = row·pixel from the
+// centre of pixel (0, 0), z from the first slice, rows along the scanner's +x and columns along
+// +y) into the scanner frame: adds `pixel0` (the scanner x, y of pixel (0, 0)) to every pith
+// sample and records `frame`. Knots are relative to the pith and the heights keep their origin,
+// so nothing else moves.
+void place_in_scanner_frame(LogModel& log, const Vec2& pixel0, const ScannerFrame& frame);
 
 }  // namespace sawyer
