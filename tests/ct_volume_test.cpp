@@ -201,7 +201,8 @@ TEST(CtVolume, GzipNrrdIsReadWhole) {
   ASSERT_TRUE(src);
   EXPECT_TRUE(has_note(*src, "whole volume"));
   expect_pattern(*src, 0.5);
-  // A left-handed space changes nothing: rows stay in file order.
+  // A left-handed space keeps the rows in file order; its directions are mapped into LPS, the
+  // scanner frame Sawyer uses (LAS's y points anterior: negated).
   test::write_file(dir / "las.nrrd",
                    "NRRD0004\ntype: int16\ndimension: 3\nspace: "
                    "left-anterior-superior\nsizes: 16 12 5\nspace directions: "
@@ -210,11 +211,12 @@ TEST(CtVolume, GzipNrrdIsReadWhole) {
   auto las = open_ok(dir / "las.nrrd");
   ASSERT_TRUE(las);
   expect_pattern(*las, 0.5);
-  EXPECT_EQ(las->geometry().orientation, (std::array<double, 6>{1, 0, 0, 0, 1, 0}));
+  EXPECT_EQ(las->geometry().orientation, (std::array<double, 6>{1, 0, 0, 0, -1, 0}));
 }
 
 TEST(CtVolume, NrrdLeftHandedSpaceKeepsRowOrder) {
-  // Rows stay in file order whatever the space (raw data does not go through vtkNrrdReader).
+  // Rows stay in file order whatever the space (raw data does not go through vtkNrrdReader);
+  // the directions are mapped into LPS (LAS: y negated).
   test::TempDir dir;
   const std::vector<int16_t> v = pattern_samples(12, 10, 3);
   write_bytes(dir / "las.nrrd",
@@ -224,7 +226,7 @@ TEST(CtVolume, NrrdLeftHandedSpaceKeepsRowOrder) {
   auto src = open_ok(dir / "las.nrrd");
   ASSERT_TRUE(src);
   expect_pattern(*src, 0.5);
-  EXPECT_EQ(src->geometry().orientation, (std::array<double, 6>{1, 0, 0, 0, 1, 0}));
+  EXPECT_EQ(src->geometry().orientation, (std::array<double, 6>{1, 0, 0, 0, -1, 0}));
 }
 
 TEST(CtVolume, CompressedVtiWrittenByVtkReadsPerSlice) {

@@ -20,12 +20,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // 40 cm of the real spruce log at 1.2 mm pixels (the same cached scan as run_cli_test).
-fs::path small_ct() {
-  static const fs::path p = test::cached_phantom(
-      "gran1_40cm", test::quoted(test::sample_log("gran1_spruce") / "log.json") +
-                        " --from-mm 1000 --to-mm 1400 --size 320 --pixel-mm 1.2 --seed 3");
-  return p;
-}
+fs::path small_ct() { return test::gran1_40cm_ct(); }
 
 // 2ex with boards kept from 200 mm: the test log is short.
 fs::path short_pattern(const fs::path& dir) {

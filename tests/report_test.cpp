@@ -153,6 +153,8 @@ TEST(Report, PdfHasPagesImagesRotationAndGrades) {
     const std::string grade = b["grade"];
     EXPECT_TRUE(std::regex_search(out, std::regex("\\b" + grade + "\\b"))) << grade;
   }
+  // The bundled model has no scanner frame, and the report says so (issue 19).
+  EXPECT_NE(out.find("log model (no scanner frame)"), std::string::npos) << out;
 }
 
 TEST(Report, HtmlIsSelfContainedAndEveryImageDecodesInChromium) {
@@ -161,6 +163,7 @@ TEST(Report, HtmlIsSelfContainedAndEveryImageDecodesInChromium) {
   ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
   ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
   std::string html = read(dir / "report/report.html");
+  EXPECT_NE(html.find("<th>Frame</th><td>log model (no scanner frame)</td>"), std::string::npos);
   EXPECT_EQ(html.find("http://"), std::string::npos);
   EXPECT_EQ(html.find("https://"), std::string::npos);
   const Json sawing = Json::parse(read(dir / "sawing.json"));
@@ -254,6 +257,38 @@ TEST(Report, CsvAndJsonAgreeWithSawingJson) {
   }
   EXPECT_EQ(rows, boards.size());
   EXPECT_NEAR(csv_total, total, 1e-6 * boards.size() + 1e-6);
+}
+
+// A log scanned from CT (issue 19): its scanner_frame reaches sawing.json's frame with the
+// scan's origin, and the PDF and the HTML page state the frame and the scanner z of z = 0.
+TEST(Report, StatesTheScannerFrameOfTheScan) {
+  REQUIRE_TOOL("pdftotext");
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  Json log = Json::parse(read(dir / "scan" / "log.json"));
+  log["scanner_frame"] = {{"origin_mm", {-191.4, 87.5, 1234.5}},
+                          {"row_dir", {1, 0, 0}},
+                          {"col_dir", {0, 1, 0}},
+                          {"z0_mm", 1234.5},
+                          {"z_dir", 1}};
+  test::write_file(dir / "scan" / "log.json", log.dump(1));
+  std::string out;
+  ASSERT_EQ(test::run_sawyer("saw " + test::quoted(dir / "scan" / "log.json") + " -q -o " +
+                                 test::quoted(dir / "sawing.json"),
+                             &out),
+            0)
+      << out;
+  const Json sawing = Json::parse(read(dir / "sawing.json"));
+  EXPECT_EQ(sawing["frame"]["coordinates"], "scanner");
+  EXPECT_EQ(sawing["frame"]["scanner_frame"]["origin_mm"], Json({-191.4, 87.5, 1234.5}));
+  EXPECT_EQ(sawing["frame"]["scanner_frame"]["z0_mm"], 1234.5);
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  ASSERT_EQ(shell("pdftotext -layout " + test::quoted(dir / "report/report.pdf") + " -", &out), 0);
+  EXPECT_NE(out.find("scanner x, y; z from 1234.5 mm"), std::string::npos) << out;
+  EXPECT_EQ(out.find("no scanner frame"), std::string::npos) << out;
+  EXPECT_NE(read(dir / "report/report.html")
+                .find("<th>Frame</th><td>scanner x, y; z from 1234.5 mm</td>"),
+            std::string::npos);
 }
 
 TEST(Report, GivenPositionIsTheOneReported) {

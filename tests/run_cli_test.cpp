@@ -5,8 +5,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "sawyer/register/log_register.h"
@@ -19,12 +21,7 @@ using Json = nlohmann::json;
 namespace {
 
 // 40 cm of the real spruce log at 1.2 mm pixels: small enough to scan in a second or two.
-fs::path small_ct() {
-  static const fs::path p = test::cached_phantom(
-      "gran1_40cm", test::quoted(test::sample_log("gran1_spruce") / "log.json") +
-                        " --from-mm 1000 --to-mm 1400 --size 320 --pixel-mm 1.2 --seed 3");
-  return p;
-}
+fs::path small_ct() { return test::gran1_40cm_ct(); }
 
 // 2ex with boards kept from 200 mm: the test log is short.
 fs::path short_pattern(const test::TempDir& dir) {
@@ -91,6 +88,37 @@ TEST(RunCli, WritesScanSawingReportAndRegistersTheLog) {
   // The summary ends with where the report is.
   EXPECT_NE(out.find("report.pdf"), std::string::npos) << out;
   EXPECT_NE(out.find("volume yield"), std::string::npos) << out;
+
+  // The scanner frame (issue 19): run.json and sawing.json carry the scan's origin as the CT
+  // gives it (the phantom's truth), and the report states the frame with the scanner z it uses.
+  const Json truth = read_json(ct / "truth" / "phantom.json");
+  ASSERT_FALSE(truth.is_discarded());
+  const Json& origin = truth["geometry"]["origin"];
+  const double first_z = origin[2].get<double>() + truth["geometry"]["z"][0].get<double>();
+  ASSERT_TRUE(run.contains("scanner_frame")) << run.dump(1);
+  ASSERT_EQ(run["scanner_frame"]["origin_mm"].size(), 3u);
+  EXPECT_NEAR(run["scanner_frame"]["origin_mm"][0].get<double>(), origin[0].get<double>(), 1e-3);
+  EXPECT_NEAR(run["scanner_frame"]["origin_mm"][1].get<double>(), origin[1].get<double>(), 1e-3);
+  EXPECT_NEAR(run["scanner_frame"]["origin_mm"][2].get<double>(), first_z, 1e-3);
+  EXPECT_EQ(saw["frame"]["coordinates"], "scanner");
+  EXPECT_EQ(saw["frame"]["scanner_frame"], run["scanner_frame"]);
+  const std::string html = [&] {
+    std::ifstream f(dir / "out" / "report" / "report.html");
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  }();
+  char frame[64];
+  std::snprintf(frame, sizeof frame, "scanner x, y; z from %.1f mm",
+                run["scanner_frame"]["z0_mm"].get<double>());
+  EXPECT_NE(html.find(std::string("<th>Frame</th><td>") + frame + "</td>"), std::string::npos)
+      << frame;
+  std::string pdf_text;
+  if (test::run_command("command -v pdftotext >/dev/null", &pdf_text) == 0) {
+    ASSERT_EQ(
+        test::run_command("pdftotext " + test::quoted(dir / "out" / "report" / "report.pdf") + " -",
+                          &pdf_text),
+        0);
+    EXPECT_NE(pdf_text.find(frame), std::string::npos) << frame << " not in\n" << pdf_text;
+  }
 
   // The register holds the log with the chosen position and value of sawing.json.
   auto reg = reg::LogRegister::open_read_only(dir / "logs.sqlite");

@@ -209,21 +209,25 @@ void write_mha(const fs::path& file, const Scene& sc, const Axes& ax) {
   out << raw_volume(sc, L);
 }
 
-// An NRRD with space directions (spacing times direction) and a space origin.
-void write_nrrd(const fs::path& file, const Scene& sc, const Axes& ax) {
+// An NRRD with space directions (spacing times direction) and a space origin. With a `space`,
+// every vector is written in that space: `signs` turns the scene's LPS x, y, z into it (RAS:
+// -1, -1, 1); without one, "space dimension: 3" and the vectors as they are.
+void write_nrrd(const fs::path& file, const Scene& sc, const Axes& ax,
+                const std::string& space = "", const Vec3& signs = {1, 1, 1}) {
   const Layout L{ax, sc.w, sc.px};
   const Vec3 o = file_position(sc, L, 0), n = ax.normal();
-  const auto v = [](const Vec3& d, double s) {
+  const auto v = [&](const Vec3& d, double s) {
     std::ostringstream t;
-    t << "(" << std::to_string(s * d.x) << "," << std::to_string(s * d.y) << ","
-      << std::to_string(s * d.z) << ")";
+    t << "(" << std::to_string(s * signs.x * d.x) << "," << std::to_string(s * signs.y * d.y) << ","
+      << std::to_string(s * signs.z * d.z) << ")";
     return t.str();
   };
   std::ofstream out(file, std::ios::binary);
-  out << "NRRD0004\ntype: float\ndimension: 3\nspace dimension: 3\nsizes: " << sc.w << " "
+  out << "NRRD0004\ntype: float\ndimension: 3\n"
+      << (space.empty() ? "space dimension: 3" : "space: " + space) << "\nsizes: " << sc.w << " "
       << sc.w << " " << sc.slices.size() << "\nspace directions: " << v(ax.row, sc.px) << " "
-      << v(ax.col, sc.px) << " " << v(n, sc.dz) << "\nspace origin: "
-      << v(o, 1.0) << "\nendian: little\nencoding: raw\n\n";
+      << v(ax.col, sc.px) << " " << v(n, sc.dz) << "\nspace origin: " << v(o, 1.0)
+      << "\nendian: little\nencoding: raw\n\n";
   out << raw_volume(sc, L);
 }
 
@@ -327,6 +331,96 @@ TEST(ScannerFrame, NrrdWithSwappedAxesAndOrigin) {
   fs::create_directories(dir / "ct");
   write_nrrd(dir / "ct" / "volume.nrrd", scene(), {{0, 1, 0}, {1, 0, 0}});
   expect_pith_in_scanner_frame(dir / "ct" / "volume.nrrd", dir / "scan");
+}
+
+// NRRD's `space` (issue 19): the same scene written in RAS (x and y negated against LPS) gives
+// the same scanner-frame pith and frame as when it is written in LPS, Sawyer's frame.
+TEST(ScannerFrame, NrrdInRasGivesThePithOfLps) {
+  ASSERT_FALSE(scene().slices.empty()) << "no phantom";
+  test::TempDir dir;
+  fs::create_directories(dir / "ct");
+  const Axes ax{{-1, 0, 0}, {0, 1, 0}};
+  write_nrrd(dir / "ct" / "lps.nrrd", scene(), ax, "left-posterior-superior");
+  write_nrrd(dir / "ct" / "ras.nrrd", scene(), ax, "right-anterior-superior", {-1, -1, 1});
+  expect_pith_in_scanner_frame(dir / "ct" / "ras.nrrd", dir / "ras");
+  std::string text;
+  ASSERT_EQ(test::run_sawyer("scan " + test::quoted(dir / "ct" / "lps.nrrd") + " -o " +
+                                 test::quoted(dir / "lps"),
+                             &text),
+            0)
+      << text;
+  auto lps = read_log_json(dir / "lps" / "log.json");
+  auto ras = read_log_json(dir / "ras" / "log.json");
+  ASSERT_TRUE(lps.ok() && ras.ok());
+  ASSERT_EQ(lps.value().stem.slice_count(), ras.value().stem.slice_count());
+  for (int i = 0; i < lps.value().stem.slice_count(); ++i) {
+    const auto k = static_cast<size_t>(i);
+    EXPECT_NEAR(ras.value().stem.pith[k].x, lps.value().stem.pith[k].x, 1e-6) << i;
+    EXPECT_NEAR(ras.value().stem.pith[k].y, lps.value().stem.pith[k].y, 1e-6) << i;
+  }
+  const ScannerFrame& f = *ras.value().scanner_frame;
+  const Vec3 want = file_position(scene(), Layout{ax, scene().w, scene().px}, 0);
+  EXPECT_NEAR(f.origin_mm.x, want.x, 1e-6);
+  EXPECT_NEAR(f.origin_mm.y, want.y, 1e-6);
+  EXPECT_NEAR(f.origin_mm.z, want.z, 1e-6);
+  EXPECT_EQ(f.row_dir, ax.row);
+  EXPECT_EQ(f.col_dir, ax.col);
+}
+
+// A tiny NRRD (12 x 10 x 3, axes along the space's x, y, z) in `space`.
+fs::path write_small_nrrd(const fs::path& dir, const std::string& space) {
+  fs::create_directories(dir);
+  const fs::path file = dir / "v.nrrd";
+  std::ofstream out(file, std::ios::binary);
+  out << "NRRD0004\ntype: short\ndimension: 3\nspace: " << space
+      << "\nsizes: 12 10 3\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,2)\n"
+      << "space origin: (10,20,30)\nendian: little\nencoding: raw\n\n"
+      << std::string(12 * 10 * 3 * 2, '\0');
+  return file;
+}
+
+// Each axis that points the other way from LPS is negated, in the origin and the directions;
+// the scanner's own frames are as given.
+TEST(ScannerFrame, NrrdSpacesMapToLps) {
+  const struct {
+    const char* space;
+    Vec3 origin, row, col, slices;
+  } kSpaces[] = {
+      {"right-anterior-superior", {-10, -20, 30}, {-1, 0, 0}, {0, -1, 0}, {0, 0, 1}},
+      {"RAS", {-10, -20, 30}, {-1, 0, 0}, {0, -1, 0}, {0, 0, 1}},
+      {"left-anterior-superior", {10, -20, 30}, {1, 0, 0}, {0, -1, 0}, {0, 0, 1}},
+      {"left-posterior-superior", {10, 20, 30}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}},
+      {"right-posterior-inferior", {-10, 20, -30}, {-1, 0, 0}, {0, 1, 0}, {0, 0, -1}},
+      {"scanner-xyz", {10, 20, 30}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}},
+      {"3D-right-handed", {10, 20, 30}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}},
+  };
+  test::TempDir dir;
+  for (const auto& c : kSpaces) {
+    auto src = open_ct(write_small_nrrd(dir / c.space, c.space));
+    ASSERT_TRUE(src.ok()) << c.space << ": " << src.error().message();
+    const VolumeGeometry& g = src.value()->geometry();
+    EXPECT_EQ(g.origin, c.origin) << c.space;
+    EXPECT_EQ(g.orientation,
+              (std::array<double, 6>{c.row.x, c.row.y, c.row.z, c.col.x, c.col.y, c.col.z}))
+        << c.space;
+    EXPECT_EQ(g.slice_dir, c.slices) << c.space;
+    EXPECT_DOUBLE_EQ(g.spacing_x, 0.5) << c.space;
+  }
+}
+
+// A space Sawyer cannot map (a left-handed frame of no named axes, a time axis, a misspelling)
+// is refused with one line naming the file and the space; nothing is written.
+TEST(ScannerFrame, UnknownNrrdSpaceRefused) {
+  test::TempDir dir;
+  for (const char* space : {"3D-left-handed", "right-anterior-superior-time", "left-up-superior"}) {
+    const fs::path file = write_small_nrrd(dir / "ct", space);
+    const fs::path out = dir / "scan";
+    std::string text;
+    EXPECT_EQ(test::run_sawyer("scan " + test::quoted(file) + " -o " + test::quoted(out), &text), 1)
+        << text;
+    EXPECT_THAT(text, HasSubstr(file.string() + ": NRRD space \"" + space + "\"")) << text;
+    EXPECT_FALSE(fs::exists(out)) << space;
+  }
 }
 
 TEST(ScannerFrame, VtiWithFlippedColumnsAndOrigin) {

@@ -73,6 +73,13 @@ int run_sawyer(const std::string& args, std::string* output) {
   return run_command("\"" + sawyer_bin() + "\" " + args, output);
 }
 
+fs::path gran1_40cm_ct() {
+  static const fs::path p = cached_phantom(
+      "gran1_40cm", quoted(sample_log("gran1_spruce") / "log.json") +
+                        " --from-mm 1000 --to-mm 1400 --size 320 --pixel-mm 1.2 --seed 3");
+  return p;
+}
+
 void write_file(const fs::path& path, const std::string& text) {
   fs::create_directories(path.parent_path());
   std::ofstream out(path, std::ios::binary);

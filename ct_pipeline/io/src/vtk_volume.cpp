@@ -441,6 +441,41 @@ Result<std::vector<double>> parse_nrrd_vector(std::string s) {
   return v;
 }
 
+// NRRD's `space` names the frame of its origin and directions; Sawyer's is DICOM's LPS (+x to the
+// left, +y posterior, +z superior). A space spelled out axis by axis (right|left, anterior|
+// posterior, superior|inferior, or NRRD's RAS, LAS, LPS) maps by negating each axis that points
+// the other way (RAS: x and y); the scanner's own frames are taken as given. The sign to apply
+// to each axis, or an Error naming the space.
+Result<Vec3> nrrd_space_signs(const std::string& value, const std::string& where) {
+  const std::string shown = value.substr(0, 60);  // a corrupt header's line stays one short line
+  std::string s = lower(value);
+  if (s.find("time") != std::string::npos)
+    return Error(where, "NRRD space \"" + shown + "\" has a time axis, which is not supported");
+  if (s == "ras") s = "right-anterior-superior";
+  if (s == "las") s = "left-anterior-superior";
+  if (s == "lps") s = "left-posterior-superior";
+  if (s == "scanner-xyz" || s == "3d-right-handed") return Vec3{1, 1, 1};
+  std::vector<std::string> part;
+  for (size_t at = 0; part.size() < 4;) {
+    const size_t dash = s.find('-', at);
+    part.push_back(s.substr(at, dash == std::string::npos ? std::string::npos : dash - at));
+    if (dash == std::string::npos) break;
+    at = dash + 1;
+  }
+  const auto sign = [&](size_t i, const char* lps, const char* other) {
+    return part[i] == lps ? 1.0 : part[i] == other ? -1.0 : 0.0;
+  };
+  if (part.size() == 3) {
+    const Vec3 signs{sign(0, "left", "right"), sign(1, "posterior", "anterior"),
+                     sign(2, "superior", "inferior")};
+    if (signs.x != 0 && signs.y != 0 && signs.z != 0) return signs;
+  }
+  return Error(where, "NRRD space \"" + shown +
+                          "\" is not one Sawyer can map to its frame (it reads right|left-"
+                          "anterior|posterior-superior|inferior, RAS, LAS, LPS, scanner-xyz, "
+                          "3D-right-handed)");
+}
+
 Result<Header> parse_nrrd(const fs::path& file) {
   const std::string where = file.string();
   // vtkNrrdReader reads at most 4 MB of header; anything longer it would misread.
@@ -472,6 +507,7 @@ Result<Header> parse_nrrd(const fs::path& file) {
   bool have_sizes = false, have_spacing = false, have_type = false;
   std::string encoding = "raw", data_file;
   std::vector<double> v;
+  Vec3 space_signs{1, 1, 1};  // per axis, into LPS (nrrd_space_signs); no `space`: as given
   while (std::getline(lines, line)) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) break;
@@ -569,8 +605,9 @@ Result<Header> parse_nrrd(const fs::path& file) {
       if (value != "0")
         return Error(where, "NRRD \"" + field + ": " + value + "\" is not supported");
     } else if (field == "space") {
-      if (lower(value).find("time") != std::string::npos)
-        return Error(where, "NRRD with a time axis is not supported");
+      Result<Vec3> signs = nrrd_space_signs(value, where);
+      if (!signs) return signs.error();
+      space_signs = signs.value();
       // (vtkNrrdReader would turn rows bottom-up for left-handed spaces, but only on raw data,
       // which goes through vtkImageReader2 here; rows stay in file order.)
     } else if (field == "space dimension") {
@@ -587,6 +624,10 @@ Result<Header> parse_nrrd(const fs::path& file) {
     }
     // Other fields (content, units, centerings, ...) change nothing Sawyer reads.
   }
+  // `space` may come before or after the vectors it applies to. (+ 0.0 turns -0 into 0, which
+  // notes and `sawyer info` would otherwise print as "-0".)
+  for (Vec3* p : {&h.origin, &h.axis[0], &h.axis[1], &h.axis[2]})
+    *p = {space_signs.x * p->x + 0.0, space_signs.y * p->y + 0.0, space_signs.z * p->z + 0.0};
   if (dimension != 3) return Error(where, "corrupt NRRD header: missing \"dimension: 3\"");
   if (!have_sizes) return Error(where, "corrupt NRRD header: missing sizes");
   if (!have_type) return Error(where, "corrupt NRRD header: missing type");

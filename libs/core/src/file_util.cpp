@@ -42,6 +42,13 @@ const char* kind_of(mode_t mode) {
 
 }  // namespace
 
+std::string line_of(const std::string& text, size_t byte) {
+  size_t line = 1;
+  for (size_t i = 0; i + 1 < byte && i < text.size(); ++i)
+    if (text[i] == '\n') ++line;
+  return "line " + std::to_string(line);
+}
+
 std::string byte_size_text(std::uintmax_t bytes) {
   std::ostringstream os;
   if (bytes >= (1u << 20) && bytes % (1u << 20) == 0)

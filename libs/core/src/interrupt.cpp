@@ -2,10 +2,16 @@
 
 #include <fcntl.h>
 #include <pthread.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
 #include <csignal>
 #include <map>
 #include <mutex>
@@ -37,6 +43,15 @@ Registry& registry() {
 
 pthread_t g_watcher;
 
+// The layout the getdents64 system call writes (glibc declares no type for it).
+struct linux_dirent64_view {
+  std::uint64_t d_ino;
+  std::int64_t d_off;
+  unsigned short d_reclen;
+  unsigned char d_type;
+  char d_name[1];
+};
+
 // While the watcher cleans up, the other threads keep running and may trip over what it removes
 // (a write into a vanished folder that throws, a mapped file gone): such a thread is parked here
 // instead of aborting the process before the clean-up is done. A fault on the watcher itself
@@ -44,6 +59,60 @@ pthread_t g_watcher;
 extern "C" void park_thread(int sig) {
   if (pthread_equal(pthread_self(), g_watcher)) ::_exit(kExitInterrupted + sig);
   for (;;) ::pause();
+}
+
+int g_signal = 0;
+
+// The clean-up is bounded: were it ever stuck, the process ends anyway after a few seconds.
+extern "C" void cleanup_timed_out(int) { ::_exit(kExitInterrupted + g_signal); }
+
+// Removes `name` (relative to `dirfd`) and everything below it without allocating memory: the
+// other threads are parked by then, and one may hold the allocator's lock. Links are removed,
+// never followed.
+void remove_tree_at(int dirfd, const char* name, int depth) {
+  if (::unlinkat(dirfd, name, 0) == 0 || errno == ENOENT) return;
+  if (depth > 64) return;
+  const int fd = ::openat(dirfd, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return;
+  alignas(8) char buf[4096];
+  for (;;) {
+    const long n = ::syscall(SYS_getdents64, fd, buf, sizeof buf);
+    if (n <= 0) break;
+    for (long off = 0; off < n;) {
+      const auto* d = reinterpret_cast<const struct linux_dirent64_view*>(buf + off);
+      const char* entry = buf + off + offsetof(linux_dirent64_view, d_name);
+      off += d->d_reclen;
+      if (std::strcmp(entry, ".") == 0 || std::strcmp(entry, "..") == 0) continue;
+      remove_tree_at(fd, entry, depth + 1);
+    }
+  }
+  ::close(fd);
+  ::unlinkat(dirfd, name, AT_REMOVEDIR);
+}
+
+// Parks every other thread of the process (the signal's handler never returns), so that none
+// writes into a temporary folder again after it is removed.
+void park_other_threads(int park_signal) {
+  const int fd = ::open("/proc/self/task", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  const pid_t self = static_cast<pid_t>(::syscall(SYS_gettid));
+  const pid_t pid = ::getpid();
+  alignas(8) char buf[4096];
+  for (;;) {
+    const long n = ::syscall(SYS_getdents64, fd, buf, sizeof buf);
+    if (n <= 0) break;
+    for (long off = 0; off < n;) {
+      const auto* d = reinterpret_cast<const struct linux_dirent64_view*>(buf + off);
+      const char* entry = buf + off + offsetof(linux_dirent64_view, d_name);
+      off += d->d_reclen;
+      const long tid = std::strtol(entry, nullptr, 10);
+      if (tid > 0 && tid != self) ::syscall(SYS_tgkill, pid, tid, park_signal);
+    }
+  }
+  ::close(fd);
+  // A thread inside a system call (a mkdir, a write) finishes it, then parks.
+  struct timespec t {0, 30 * 1000 * 1000};
+  ::nanosleep(&t, nullptr);
 }
 
 extern "C" void on_signal(int sig) {
@@ -72,12 +141,22 @@ void watch() {
     for (auto& [id, h] : r.hooks) hooks.push_back(h);
   }
   for (auto& h : hooks) h();
-  {
-    // Held to the end: no writer tracks or untracks anything from here on.
-    r.mu.lock();
-    std::error_code ec;
-    for (const auto& [path, unused] : r.temps) fs::remove_all(path, ec);
-  }
+  g_signal = sig;
+  struct sigaction timeout {};
+  timeout.sa_handler = cleanup_timed_out;
+  sigemptyset(&timeout.sa_mask);
+  ::sigaction(SIGALRM, &timeout, nullptr);
+  ::alarm(5);
+  // Held to the end: no writer tracks or untracks anything from here on.
+  r.mu.lock();
+  std::vector<std::string> paths;
+  for (const auto& [path, unused] : r.temps) paths.push_back(path);
+  // Freeze, then clean: with every other thread parked nothing can create a folder again after
+  // its removal (a writer's create_directories would otherwise bring back a removed one).
+  const int park_signal = SIGRTMIN + 5;
+  ::sigaction(park_signal, &park, nullptr);
+  park_other_threads(park_signal);
+  for (const std::string& p : paths) remove_tree_at(AT_FDCWD, p.c_str(), 0);
   static const char kMsg[] = "sawyer: interrupted; temporary files removed\n";
   [[maybe_unused]] ssize_t n = ::write(2, kMsg, sizeof kMsg - 1);
   ::_exit(kExitInterrupted + sig);

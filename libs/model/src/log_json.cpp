@@ -345,14 +345,6 @@ std::string log_to_json(const LogModel& log) {
 
 namespace {
 
-// The 1-based line of byte offset `byte` (nlohmann counts bytes from 1).
-std::string line_of(const std::string& text, size_t byte) {
-  size_t line = 1;
-  for (size_t i = 0; i + 1 < byte && i < text.size(); ++i)
-    if (text[i] == '\n') ++line;
-  return "line " + std::to_string(line);
-}
-
 // nlohmann reports a number too large for a double ("number overflow parsing '1e999'") without
 // its offset: the line is found from the token it quotes.
 Error overflow_error(const std::string& text, const std::string& what) {

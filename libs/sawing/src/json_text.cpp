@@ -4,18 +4,6 @@
 #include "sawyer/core/file_util.h"
 
 namespace sawyer::sawing {
-namespace {
-
-// The 1-based line of byte offset `byte` (nlohmann counts bytes from 1).
-std::string line_of(const std::string& text, size_t byte) {
-  size_t line = 1;
-  for (size_t i = 0; i + 1 < byte && i < text.size(); ++i)
-    if (text[i] == '\n') ++line;
-  return "line " + std::to_string(line);
-}
-
-}  // namespace
-
 Result<std::string> read_data_file(const std::filesystem::path& path) {
   return read_text_file(path, kMaxDataFileBytes);
 }

@@ -23,6 +23,10 @@ inline constexpr std::uintmax_t kMaxTextFileBytes = 256u << 20;  // 256 MiB
 Result<std::string> read_text_file(const std::filesystem::path& path,
                                    std::uintmax_t max_bytes = kMaxTextFileBytes);
 
+// "line N" for the 1-based byte offset `byte` of `text` (as JSON parsers report positions), for
+// messages about a file's contents.
+std::string line_of(const std::string& text, size_t byte);
+
 // "1 MiB", "512 MiB", "1.5 KiB": a byte count for messages.
 std::string byte_size_text(std::uintmax_t bytes);
 

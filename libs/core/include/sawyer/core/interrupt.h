@@ -9,8 +9,9 @@
 //   sawyer::TrackedTemp guard(tmp_dir);      // removed if a signal arrives meanwhile
 //
 // The signal handler only sets a flag and writes one byte to a pipe (both async-signal-safe); a
-// watcher thread reads the pipe, runs the cleanup hooks, removes every tracked path and ends the
-// process with 128 + the signal number (130 for Ctrl-C, 143 for SIGTERM). Without
+// watcher thread reads the pipe, runs the cleanup hooks, parks every other thread, removes every
+// tracked path (allocation-free) and ends the process with 128 + the signal number (130 for
+// Ctrl-C, 143 for SIGTERM). Without
 // install_interrupt_cleanup() (tests, other programs using the libraries) tracking costs a mutex
 // and does nothing else.
 #pragma once
