@@ -168,8 +168,7 @@ int run(const RunCli& c) {
   // The output may replace only an empty folder or an earlier run folder, never the scan or a
   // folder around it; the lock makes a second run of the same -o refuse at once.
   OutputRequest out_req{c.output, OutputKind::kRunFolder, {c.scan.input}, "-o"};
-  for (const std::string* f : {&c.names.pattern, &c.names.grading, &c.names.prices})
-    if (!f->empty() && fs::exists(*f, ec)) out_req.inputs.emplace_back(*f);
+  for (const fs::path& f : saw_input_files(c.names)) out_req.inputs.push_back(f);
   if (!c.db.empty()) out_req.inputs.emplace_back(c.db);
   Result<OutputLock> lock = OutputLock::acquire(out_req);
   if (!lock) return fail(lock.error());

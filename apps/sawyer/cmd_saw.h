@@ -11,8 +11,10 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "sawyer/sawing/sawing_job.h"
 
@@ -21,6 +23,10 @@ namespace sawyer::app {
 // Adds the `saw` subcommand to `app`. When the command line selects it, parsing sets `run` to a
 // function that does the work and returns the exit code (0, or 1 with one line on stderr).
 void add_saw_command(CLI::App& app, std::function<int()>& run);
+
+// The pattern, grading and price files the names point at (names such as "2ex" or "nordic" are
+// no files): inputs an output must never replace (`sawyer saw`, `sawyer run`).
+std::vector<std::filesystem::path> saw_input_files(const sawing::SawNames& names);
 
 // The one-screen summary of a sawing job (`sawyer saw`, `sawyer run`): positions and speed,
 // best / horns-down / horns-up values, the gain, and the boards' table.

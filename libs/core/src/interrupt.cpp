@@ -66,6 +66,23 @@ int g_signal = 0;
 // The clean-up is bounded: were it ever stuck, the process ends anyway after a few seconds.
 extern "C" void cleanup_timed_out(int) { ::_exit(kExitInterrupted + g_signal); }
 
+// Calls f(name) for every entry of the open folder `fd` but "." and "..", reading it with
+// getdents64 into a buffer on the stack: no allocation (see remove_tree_at).
+template <typename F>
+void for_each_entry(int fd, F&& f) {
+  alignas(8) char buf[4096];
+  for (;;) {
+    const long n = ::syscall(SYS_getdents64, fd, buf, sizeof buf);
+    if (n <= 0) return;
+    for (long off = 0; off < n;) {
+      const auto* d = reinterpret_cast<const linux_dirent64_view*>(buf + off);
+      const char* entry = buf + off + offsetof(linux_dirent64_view, d_name);
+      off += d->d_reclen;
+      if (std::strcmp(entry, ".") != 0 && std::strcmp(entry, "..") != 0) f(entry);
+    }
+  }
+}
+
 // Removes `name` (relative to `dirfd`) and everything below it without allocating memory: the
 // other threads are parked by then, and one may hold the allocator's lock. Links are removed,
 // never followed.
@@ -74,18 +91,7 @@ void remove_tree_at(int dirfd, const char* name, int depth) {
   if (depth > 64) return;
   const int fd = ::openat(dirfd, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
   if (fd < 0) return;
-  alignas(8) char buf[4096];
-  for (;;) {
-    const long n = ::syscall(SYS_getdents64, fd, buf, sizeof buf);
-    if (n <= 0) break;
-    for (long off = 0; off < n;) {
-      const auto* d = reinterpret_cast<const struct linux_dirent64_view*>(buf + off);
-      const char* entry = buf + off + offsetof(linux_dirent64_view, d_name);
-      off += d->d_reclen;
-      if (std::strcmp(entry, ".") == 0 || std::strcmp(entry, "..") == 0) continue;
-      remove_tree_at(fd, entry, depth + 1);
-    }
-  }
+  for_each_entry(fd, [&](const char* entry) { remove_tree_at(fd, entry, depth + 1); });
   ::close(fd);
   ::unlinkat(dirfd, name, AT_REMOVEDIR);
 }
@@ -97,18 +103,10 @@ void park_other_threads(int park_signal) {
   if (fd < 0) return;
   const pid_t self = static_cast<pid_t>(::syscall(SYS_gettid));
   const pid_t pid = ::getpid();
-  alignas(8) char buf[4096];
-  for (;;) {
-    const long n = ::syscall(SYS_getdents64, fd, buf, sizeof buf);
-    if (n <= 0) break;
-    for (long off = 0; off < n;) {
-      const auto* d = reinterpret_cast<const struct linux_dirent64_view*>(buf + off);
-      const char* entry = buf + off + offsetof(linux_dirent64_view, d_name);
-      off += d->d_reclen;
-      const long tid = std::strtol(entry, nullptr, 10);
-      if (tid > 0 && tid != self) ::syscall(SYS_tgkill, pid, tid, park_signal);
-    }
-  }
+  for_each_entry(fd, [&](const char* entry) {
+    const long tid = std::strtol(entry, nullptr, 10);
+    if (tid > 0 && tid != self) ::syscall(SYS_tgkill, pid, tid, park_signal);
+  });
   ::close(fd);
   // A thread inside a system call (a mkdir, a write) finishes it, then parks.
   struct timespec t {0, 30 * 1000 * 1000};
