@@ -2,7 +2,7 @@
 // (issue 19, item 3; docs/phantom.md "Condition space", docs/scan.md "Robustness sweep").
 //
 //   robustness [--quick] [--conditions N] [--slices S] [--seed S] [--preset P] [--logs L]
-//              [--only I] [--threads T] [--list 0|1] [--baseline 0|1]
+//              [--only I] [--threads T] [--list 0|1] [--baseline 0|1] [--qa-csv FILE]
 //
 // Draws N conditions (seeded; condition i from its own stream, so `--only i` reproduces it),
 // each a log (the bundled gran1_spruce, pine_8, spruce_77 or a fresh sawyer::generate_log one),
@@ -30,6 +30,7 @@
 #include "sawyer/ct/knot_scan.h"
 #include "sawyer/ct/log_volume.h"
 #include "sawyer/ct/phantom.h"
+#include "sawyer/ct/scan_qa.h"
 #include "sawyer/ct/slice_source.h"
 #include "sawyer/ct/stem_scan.h"
 #include "sawyer/model/log_generator.h"
@@ -221,13 +222,27 @@ struct Figures {
   double diam_sum2 = 0;
   long diam_count = 0;
   std::vector<double> r_dead_errors;
-  std::optional<bool> flagged;  // the scan's own "unsure" verdict: none exists yet
+  std::optional<bool> flagged;  // the scan's own QA verdict failed (ct::assess_scan)
+  std::string qa_warnings;      // its warnings, joined
+  // The figures it rests on (ScanQaDetail), for --qa-csv.
+  double qa_pith_suspect = NAN, qa_pith_run_mm = NAN, qa_ring_share = NAN,
+         qa_outline_suspect = NAN, qa_knots_per_m = NAN;
   double seconds_render = 0, seconds_scan = 0;
 };
 
-// Hook for the QA verdict of the next issue: whether the scan flagged itself as unsure. No
-// such flag exists yet, so every scan prints "n/a" and the QA row has no figures.
-std::optional<bool> scan_flagged(const StemScan&, const KnotScan&) { return std::nullopt; }
+// The scan's own QA verdict (what `sawyer scan` and `sawyer run` report): flagged when it
+// fails.
+void scan_qa(const StemScan& s, const KnotScan& k, const VolumeGeometry& g, Figures& f) {
+  const ScanQaDetail qa = assess_scan(s, &k, g);
+  for (const std::string& w : qa.verdict.warnings)
+    f.qa_warnings += (f.qa_warnings.empty() ? "" : "; ") + w;
+  f.flagged = !qa.verdict.trusted;
+  f.qa_pith_suspect = qa.pith_suspect_share;
+  f.qa_pith_run_mm = qa.pith_longest_run_mm;
+  f.qa_ring_share = qa.pith_median_ring_share;
+  f.qa_outline_suspect = qa.outline_suspect_share;
+  f.qa_knots_per_m = qa.knots_per_m;
+}
 
 // Narrowest ring within 20 mm of the pith, in pixels, from the drawn width profile (linear from
 // the juvenile width at the pith to the mature width at juvenile_radius_mm).
@@ -312,7 +327,7 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads) {
     return f;
   }
   f.seconds_scan = stem.value().seconds + knots.value().seconds;
-  f.flagged = scan_flagged(stem.value(), knots.value());
+  scan_qa(stem.value(), knots.value(), src.geometry(), f);
   const LogModel truth = ph->truth_log();
   const StemScan& s = stem.value();
   f.slices = static_cast<int>(s.slices.size());
@@ -652,9 +667,25 @@ void print_pass_rates(const std::vector<Done>& done) {
   int errors = 0, excluded = 0;
   for (const Done& d : done)
     errors += !d.f.error.empty() && !d.f.excluded, excluded += d.f.excluded;
+  // The QA verdict: a scan misses when any stage it enters fails; a scan the stem pass refused
+  // ("no log found") said so itself and counts as flagged.
+  int miss = 0, miss_flagged = 0, meet = 0, meet_flagged = 0;
+  for (const Done& d : done) {
+    if (d.f.excluded) continue;
+    bool fails = !d.f.error.empty();
+    for (const Stage& st : stages()) fails = fails || st.test(d.c, d.f) == kFail;
+    const bool flagged = !d.f.error.empty() || d.f.flagged.value_or(false);
+    (fails ? miss : meet) += 1;
+    (fails ? miss_flagged : meet_flagged) += flagged;
+  }
+  const double hit = miss ? double(miss_flagged) / miss : NAN;
+  const double false_alarm = meet ? double(meet_flagged) / meet : NAN;
   std::printf(
-      "| QA verdict | flags >= 90 %% of the scans that miss, <= 5 %% of those that meet "
-      "| - | - | n/a | | no flag yet |\n");
+      "| QA verdict | flags >= 90 %% of the scans that miss, <= 5 %% of those that meet | %d | "
+      "%d/%d miss, %d/%d meet | %s, %s | 90 %%, 5 %% | %s |\n",
+      miss + meet, miss_flagged, miss, meet_flagged, meet, fmt("%.0f %%", 100 * hit).c_str(),
+      fmt("%.0f %%", 100 * false_alarm).c_str(),
+      (!(hit >= 0.9) || !(false_alarm <= 0.05)) ? "no" : "yes");
   // Pooled figures: the diameter RMSE over every pair of the fine scans, the median r_dead
   // error over all their dead pairs, and recall/precision over all knots.
   double s2 = 0;
@@ -697,9 +728,12 @@ void print_failures(const std::vector<Done>& done, const std::vector<LogModel>& 
       failed = (d.f.excluded ? "(not counted: " : "(") + d.f.error + ") " + failed;
     if (failed.empty()) continue;
     ++shown;
-    std::printf("- #%d fails %s.\n  %s.\n  %s.\n", d.c.id, failed.c_str(),
+    std::printf("- #%d fails %s.\n  %s.\n  %s.\n  QA: %s.\n", d.c.id, failed.c_str(),
                 params(d.c, logs_of[i], d.f).c_str(),
-                d.f.error.empty() ? figures(d.f).c_str() : "no figures");
+                d.f.error.empty() ? figures(d.f).c_str() : "no figures",
+                !d.f.error.empty()          ? "refused the scan"
+                : d.f.flagged.value_or(false) ? ("flagged: " + d.f.qa_warnings).c_str()
+                                              : "NOT flagged");
   }
   if (!shown) std::printf("None.\n");
 }
@@ -732,11 +766,38 @@ void print_factors(const std::vector<Done>& done) {
   }
 }
 
+// One row per scan: which stage groups failed, and the QA verdict's figures (to set and check
+// its thresholds on a sweep of another seed than the one reported).
+void write_qa_csv(const std::vector<Done>& done, const std::string& path) {
+  FILE* out = std::fopen(path.c_str(), "w");
+  if (!out) {
+    std::fprintf(stderr, "robustness: cannot write %s\n", path.c_str());
+    return;
+  }
+  std::fprintf(out, "id,error,fails,fails_pith,fails_outline,fails_knots,flagged,pith_suspect,"
+                    "pith_run_mm,ring_share,outline_suspect,knots_per_m,pith_median,outer_rms\n");
+  for (const Done& d : done) {
+    if (d.f.excluded) continue;
+    std::string failed;
+    bool fp = false, fo = false, fk = false;
+    for (size_t k = 0; k < stages().size(); ++k) {
+      if (stages()[k].test(d.c, d.f) != kFail) continue;
+      failed = "1";
+      (k <= 2 ? fp : (k <= 4 ? fo : fk)) = true;
+    }
+    std::fprintf(out, "%d,%d,%d,%d,%d,%d,%d,%g,%g,%g,%g,%g,%g,%g\n", d.c.id, !d.f.error.empty(),
+                 !failed.empty() || !d.f.error.empty(), fp, fo, fk, d.f.flagged.value_or(false),
+                 d.f.qa_pith_suspect, d.f.qa_pith_run_mm, d.f.qa_ring_share,
+                 d.f.qa_outline_suspect, d.f.qa_knots_per_m, d.f.pith_median, d.f.outer_rms);
+  }
+  std::fclose(out);
+}
+
 int usage() {
   std::fprintf(stderr,
                "usage: robustness [--quick] [--conditions N] [--slices S] [--seed S] "
                "[--preset pine|spruce|douglas|mixed] [--logs bundled|random|all] [--only I] "
-               "[--threads T] [--list 0|1] [--baseline 0|1]\n");
+               "[--threads T] [--list 0|1] [--baseline 0|1] [--qa-csv FILE]\n");
   return 2;
 }
 
@@ -746,7 +807,7 @@ int main(int argc, char** argv) {
   int n_conditions = 200, slices = 40, threads = 2, only = -1;
   bool list = true, baseline = false;
   std::uint64_t seed = 19;
-  std::string preset = "mixed", logs_from = "all";
+  std::string preset = "mixed", logs_from = "all", qa_csv;
   for (int a = 1; a < argc; ++a) {
     const std::string k = argv[a];
     if (k == "--quick") {
@@ -773,6 +834,8 @@ int main(int argc, char** argv) {
       list = std::atoi(val) != 0;
     else if (k == "--baseline")
       baseline = std::atoi(val) != 0;
+    else if (k == "--qa-csv")
+      qa_csv = val;
     else
       return usage();
   }
@@ -833,6 +896,7 @@ int main(int argc, char** argv) {
   print_pass_rates(done);
   print_failures(done, logs_of);
   print_factors(done);
+  if (!qa_csv.empty()) write_qa_csv(done, qa_csv);
   std::printf("\nWall time: %.0f s.\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   return 0;

@@ -182,9 +182,10 @@ int run(const BatchCli& c) {
   po.jobs = c.jobs;
   po.timeout_s = c.timeout_s;
   po.on_finished = [](const JobResult& r, int done, int total) {
-    std::cout << "[" << done << "/" << total << "] " << r.id << " " << (r.ok() ? "ok" : "FAILED")
-              << " " << seconds_text(r.seconds) << " s";
-    if (!r.ok()) std::cout << ": " << r.error;
+    std::cout << "[" << done << "/" << total << "] " << r.id << " "
+              << (r.ok() ? "ok" : r.warned() ? "ok, QA warnings" : "FAILED") << " "
+              << seconds_text(r.seconds) << " s";
+    if (!r.completed()) std::cout << ": " << r.error;
     std::cout << "\n" << std::flush;
   };
   const auto t0 = std::chrono::steady_clock::now();
@@ -194,7 +195,7 @@ int run(const BatchCli& c) {
   // A run stopped by --timeout removes its temporary output itself (SIGTERM); one that had to be
   // killed outright cannot, so its leftovers are swept here, under the run folder's lock.
   for (size_t i = 0; i < rows.size(); ++i)
-    if (!results[i].ok()) (void)OutputLock::lock_only(out_dir / rows[i]->id, "");
+    if (!results[i].completed()) (void)OutputLock::lock_only(out_dir / rows[i]->id, "");
 
   // The value of each good log, read back from the register its run wrote to.
   std::optional<LogRegister> reg;
@@ -203,12 +204,13 @@ int run(const BatchCli& c) {
     if (r) reg.emplace(std::move(r).value());
   }
   std::string csv = "id,ct,status,exit_code,seconds,value,error\n";
-  int failed = 0;
+  int failed = 0, warned = 0;
   for (size_t i = 0; i < rows.size(); ++i) {
     const JobResult& r = results[i];
-    failed += !r.ok();
+    failed += !r.completed();
+    warned += r.warned();
     std::string value;
-    if (r.ok() && reg) {
+    if (r.completed() && reg) {
       const fs::path source = fs::weakly_canonical(rows[i]->ct_path, ec);
       Result<std::optional<LogRecord>> rec = reg->find(source.string());
       if (rec && rec.value()) {
@@ -218,13 +220,13 @@ int run(const BatchCli& c) {
       }
     }
     csv += csv_cell(r.id) + "," + csv_cell(rows[i]->ct_path.string()) + "," +
-           (r.ok() ? "ok" : "failed") + "," + std::to_string(r.exit_code) + "," +
+           (r.ok() ? "ok" : r.warned() ? "qa_warnings" : "failed") + "," + std::to_string(r.exit_code) + "," +
            seconds_text(r.seconds) + "," + value + "," + csv_cell(r.error) + "\n";
   }
   const fs::path csv_path = out_dir / ("batch_" + std::to_string(shard.value().index) + ".csv");
   if (Status s = write_text_file_atomic(csv_path, csv); !s) return fail(s.error());
-  std::cout << "batch: " << rows.size() - static_cast<size_t>(failed) << " ok, " << failed
-            << " failed of " << rows.size() << " in " << seconds_text(total_s) << " s; "
+  std::cout << "batch: " << rows.size() - static_cast<size_t>(failed) << " ok (" << warned
+            << " with QA warnings), " << failed << " failed of " << rows.size() << " in " << seconds_text(total_s) << " s; "
             << csv_path.string() << "\n";
   return failed ? 2 : 0;
 }

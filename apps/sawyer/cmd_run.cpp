@@ -65,8 +65,8 @@ Json run_json(const RunCli& c, const ScanJob& scan, const std::string& source,
               const std::vector<Stage>& stages) {
   Json j;
   j["format"] = "sawyer-run/1";
-  j["log_id"] = scan.log.id;
-  j["species"] = scan.log.species;
+  j["log_id"] = scan.log().id;
+  j["species"] = scan.log().species;
   j["scan_source"] = source;
   j["scan_description"] = scan.source->description();
   // Every note of the reader (resampled gaps, ignored files), and the resampling in one line.
@@ -83,15 +83,21 @@ Json run_json(const RunCli& c, const ScanJob& scan, const std::string& source,
                        {"widest_gap_mm", zr.widest_gap_mm},
                        {"widest_gap_z0_mm", zr.widest_gap_z0}};
   // log.json's x, y are the scanner's; heights go back to its z through this (docs/formats.md).
-  if (const auto& f = scan.log.scanner_frame)
+  if (const auto& f = scan.log().scanner_frame)
     j["scanner_frame"] = {{"origin_mm", {f->origin_mm.x, f->origin_mm.y, f->origin_mm.z}},
                           {"row_dir", {f->row_dir.x, f->row_dir.y, f->row_dir.z}},
                           {"col_dir", {f->col_dir.x, f->col_dir.y, f->col_dir.z}},
                           {"z0_mm", f->z0_mm},
                           {"z_dir", f->z_dir}};
   j["scan_checksum"] = checksum;
-  j["slices"] = scan.stem.slices.size();
-  j["knots"] = scan.log.knots.size();
+  j["slices"] = scan.scan.stem.slices.size();
+  j["knots"] = scan.log().knots.size();
+  // The scan's QA verdict (as in log.json); when it fails, the chosen position rests on a
+  // model the scan itself does not trust, and says so.
+  if (const auto& qa = scan.log().qa) {
+    j["qa"] = Json::parse(qa_json_text(*qa));
+    j["position_trusted"] = qa->trusted;
+  }
   j["date"] = date;
   j["sawyer_version"] = SAWYER_VERSION;
   j["options"] = {{"pattern", c.names.pattern},
@@ -185,11 +191,11 @@ int run(const RunCli& c) {
   if (!scanned) return fail(scanned.error());
   const ScanJob& scan = scanned.value();
   stages.push_back({"scan", since(t)});
-  const LogModel& log = scan.log;
+  const LogModel& log = scan.log();
   const LogSummary summary = summarize(log);
   {
     char note[128];
-    std::snprintf(note, sizeof note, "%zu slices, %zu knots", scan.stem.slices.size(),
+    std::snprintf(note, sizeof note, "%zu slices, %zu knots", scan.scan.stem.slices.size(),
                   log.knots.size());
     bar.done("scan", stages.back().seconds, note);
   }
@@ -300,11 +306,20 @@ int run(const RunCli& c) {
   for (const Stage& s : stages) std::printf(" %s %.2f s,", s.name.c_str(), s.seconds);
   std::printf(" total %.2f s\n", since(t_all));
   if (reg) std::printf("register: %s\n", db.string().c_str());
+  std::printf("%s\n", qa_report(log.qa.value_or(ScanQa{})).c_str());
   if (!c.no_report)
     std::printf("report: %s\n        %s\n", (out_dir / "report" / "report.pdf").string().c_str(),
                 (out_dir / "report" / "report.html").string().c_str());
   else
     std::printf("results: %s\n", out_dir.string().c_str());
+  // Everything was written; the scan's QA verdict failed, so the position is not to be trusted:
+  // "completed with warnings" (README, exit codes).
+  if (!scan.trusted()) {
+    std::fprintf(stderr,
+                 "sawyer: completed with warnings: the scan's QA verdict failed; the chosen "
+                 "position is not to be trusted (run.json \"qa\")\n");
+    return 3;
+  }
   return 0;
 }
 

@@ -47,10 +47,15 @@ int run_scan(const ScanCli& c) {
   Status st = write_dir_atomic(
       c.output, [&](const fs::path& tmp) { return write_scan_files(job.value(), c.job, tmp); });
   if (!st) return fail(st.error());
-  std::printf("%s; wrote %s\n", scan_summary(job.value(), c.job.input).c_str(),
+  std::printf("%s\nwrote %s\n", ct::scan_brief(job.value().scan, c.job.input).c_str(),
               c.output.c_str());
   if (std::string z = ct::resampling_summary(job.value().source->geometry()); !z.empty())
     std::printf("note: %s\n", z.c_str());
+  // A scan whose QA verdict fails is written whole, and says so: exit 3 (README).
+  if (!job.value().trusted()) {
+    std::fprintf(stderr, "sawyer: %s\n", qa_report(job.value().log().qa.value()).c_str());
+    return 3;
+  }
   return 0;
 }
 

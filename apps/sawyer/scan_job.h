@@ -1,18 +1,15 @@
-// The work of `sawyer scan`, shared with `sawyer run`: a CT scan read and analysed into the log
-// model (stem, then knots), and the scan folder written from it (log.json, maps/, maps_float/,
-// qa/ with slices drawn, the pith track and unrolled cylinders, knots.csv).
+// The work of `sawyer scan`, shared with `sawyer run`: the CT input opened from the command
+// line's options, scanned by the library's one call (ct::scan_log: stem, knots, QA verdict),
+// and the scan folder written from it (log.json, maps/, maps_float/, qa/).
 #pragma once
 
 #include <filesystem>
-#include <functional>
 #include <memory>
 #include <string>
 
 #include "ct_options.h"
 #include "sawyer/core/result.h"
-#include "sawyer/ct/knot_scan.h"
-#include "sawyer/ct/stem_scan.h"
-#include "sawyer/model/log_model.h"
+#include "sawyer/ct/scan_log.h"
 
 namespace sawyer::app {
 
@@ -25,22 +22,18 @@ struct ScanJobOptions {
 
 struct ScanJob {
   std::unique_ptr<ct::SliceSource> source;  // kept open: the QA images read a few slices again
-  std::unique_ptr<ct::LogVolume> volume;
-  ct::StemScan stem;
-  ct::KnotScan knots;
-  LogModel log;
+  ct::ScanResult scan;
+  const LogModel& log() const { return scan.log; }
+  bool trusted() const { return scan.qa.verdict.trusted; }
 };
 
-// (stage, done, total): "stem" per slice read and analysed, then "knots" 0/1 and 1/1.
-using ScanProgress = std::function<void(const char* stage, int done, int total)>;
-
-// Opens the scan (headers only: format, geometry, the z grid). Errors name the input.
+// Opens the scan (headers only: format, geometry, the z grid), turned into the scanner's axes.
+// Errors name the input.
 Result<std::unique_ptr<ct::SliceSource>> open_scan(const ScanJobOptions& options);
 
-// Analyses the scan, opened by open_scan() (or here when `opened` is null). Errors name the
-// input and the problem.
-Result<ScanJob> scan_ct(const ScanJobOptions& options, const ScanProgress& progress,
-                        std::unique_ptr<ct::SliceSource> opened = nullptr);
+// Analyses the scan opened by open_scan(). Errors name the input and the problem.
+Result<ScanJob> scan_ct(const ScanJobOptions& options, const ct::ScanProgress& progress,
+                        std::unique_ptr<ct::SliceSource> opened);
 
 // Writes the scan folder's files into `dir` (an existing, empty folder): log.json, then
 // write_scan_extras().
@@ -51,7 +44,7 @@ Status write_scan_files(const ScanJob& job, const ScanJobOptions& options,
 Status write_scan_extras(const ScanJob& job, const ScanJobOptions& options,
                          const std::filesystem::path& dir);
 
-// The one-line summary `sawyer scan` prints.
-std::string scan_summary(const ScanJob& job, const std::string& input);
+// The QA verdict for a terminal: the headline, then each failed stage's notes, indented.
+std::string qa_report(const ScanQa& qa);
 
 }  // namespace sawyer::app

@@ -439,6 +439,16 @@ void Viewer::ui_controls(float x, float y, float w, float h) {
     for (const Knot& k : log_->knots) dead += k.has_dead_part() ? 1 : 0;
     ImGui::Text("%.2f m, mean diameter %.0f mm", st.length_mm() / 1000.0, 2.0 * mean_radius(st));
     ImGui::Text("%d knots, %d with a dead part", static_cast<int>(log_->knots.size()), dead);
+    // The scan's own QA verdict (log.json "qa"), so that an operator sees an uncertain model
+    // before sawing it.
+    if (const auto& qa = log_->qa) {
+      if (qa->trusted) {
+        ImGui::TextDisabled("scan QA: passed");
+      } else {
+        ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "scan QA: NOT TO BE TRUSTED");
+        for (const std::string& w : qa->warnings) ImGui::TextWrapped("  %s", w.c_str());
+      }
+    }
   }
 
   if (ImGui::CollapsingHeader("Show", ImGuiTreeNodeFlags_DefaultOpen)) {

@@ -258,7 +258,98 @@ Result<ScannerFrame> parse_scanner_frame(const Json& j) {
   return f;
 }
 
+// A list of at most kMaxQaLines strings of at most kMaxQaLineChars each.
+Result<std::vector<std::string>> qa_lines(const Json& obj, const std::string& path,
+                                          const char* key) {
+  std::vector<std::string> out;
+  Result<const Json*> m = member(obj, path, key, false);
+  if (!m) return m.error();
+  if (!m.value()) return out;
+  const Json& a = *m.value();
+  if (!a.is_array()) return Error(path + key, std::string("expected an array, got ") + type_name(a));
+  if (a.size() > static_cast<size_t>(lim::kMaxQaLines))
+    return Error(path + key, "has " + std::to_string(a.size()) + " lines, more than the " +
+                                 std::to_string(lim::kMaxQaLines) + " allowed");
+  for (size_t i = 0; i < a.size(); ++i) {
+    const std::string w = path + key + "[" + std::to_string(i) + "]";
+    if (!a[i].is_string()) return Error(w, std::string("expected a string, got ") + type_name(a[i]));
+    std::string s = a[i].get<std::string>();
+    if (s.size() > lim::kMaxQaLineChars)
+      return Error(w, "longer than " + std::to_string(lim::kMaxQaLineChars) + " characters");
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+// "qa": {"trusted": true, "warnings": [...], "stages": [{"stage": "pith", "ok": true,
+// "confidence": 0.93, "notes": [...]}, ...]}.
+Result<ScanQa> parse_qa(const Json& j) {
+  const std::string p = "qa.";
+  if (!j.is_object()) return Error("qa", std::string("expected an object, got ") + type_name(j));
+  ScanQa q;
+  Result<const Json*> t = member(j, p, "trusted");
+  if (!t) return t.error();
+  if (!t.value()->is_boolean())
+    return Error(p + "trusted", std::string("expected true or false, got ") + type_name(*t.value()));
+  q.trusted = t.value()->get<bool>();
+  Result<std::vector<std::string>> w = qa_lines(j, p, "warnings");
+  if (!w) return w.error();
+  q.warnings = std::move(w).value();
+  Result<const Json*> st = member(j, p, "stages", false);
+  if (!st) return st.error();
+  if (st.value()) {
+    const Json& a = *st.value();
+    if (!a.is_array()) return Error(p + "stages", "expected an array");
+    if (a.size() > static_cast<size_t>(lim::kMaxQaStages))
+      return Error(p + "stages", "has " + std::to_string(a.size()) + " stages, more than the " +
+                                     std::to_string(lim::kMaxQaStages) + " allowed");
+    for (size_t i = 0; i < a.size(); ++i) {
+      const std::string sp = p + "stages[" + std::to_string(i) + "].";
+      if (!a[i].is_object()) return Error(sp.substr(0, sp.size() - 1), "expected an object");
+      ScanQa::Stage s;
+      Result<std::string> name = string_at(a[i], sp, "stage", true);
+      if (!name) return name.error();
+      if (name.value().size() > lim::kMaxQaLineChars) return Error(sp + "stage", "too long");
+      s.name = name.value();
+      Result<const Json*> ok = member(a[i], sp, "ok");
+      if (!ok) return ok.error();
+      if (!ok.value()->is_boolean()) return Error(sp + "ok", "expected true or false");
+      s.ok = ok.value()->get<bool>();
+      Result<double> c = number_at(a[i], sp, "confidence");
+      if (!c) return c.error();
+      if (Status r = check_range(c.value(), sp + "confidence", 0.0, 1.0, ""); !r) return r.error();
+      s.confidence = c.value();
+      Result<std::vector<std::string>> n = qa_lines(a[i], sp, "notes");
+      if (!n) return n.error();
+      s.notes = std::move(n).value();
+      q.stages.push_back(std::move(s));
+    }
+  }
+  return q;
+}
+
 }  // namespace
+
+static Json qa_to_json(const ScanQa& q) {
+  Json j;
+  j["trusted"] = q.trusted;
+  j["warnings"] = q.warnings;
+  Json st = Json::array();
+  for (const ScanQa::Stage& s : q.stages)
+    st.push_back({{"stage", s.name}, {"ok", s.ok}, {"confidence", s.confidence}, {"notes", s.notes}});
+  j["stages"] = std::move(st);
+  return j;
+}
+
+std::string qa_json_text(const ScanQa& qa) { return qa_to_json(qa).dump(); }
+
+Result<ScanQa> qa_from_json_text(const std::string& text) {
+  try {
+    return parse_qa(Json::parse(text));
+  } catch (const nlohmann::json::exception& e) {
+    return Error("qa", std::string("not readable: ") + e.what());
+  }
+}
 
 std::string log_to_json(const LogModel& log) {
   Json j;
@@ -305,6 +396,7 @@ std::string log_to_json(const LogModel& log) {
     fj["z_dir"] = f.z_dir;
     j["scanner_frame"] = std::move(fj);
   }
+  if (log.qa) j["qa"] = qa_to_json(*log.qa);
   // One stem row or knot per line keeps the file diff-able and compact.
   std::ostringstream os;
   os << "{\n";
@@ -419,6 +511,13 @@ Result<LogModel> model_from_json(const Json& j) {
     Result<ScannerFrame> f = parse_scanner_frame(*frame.value());
     if (!f) return f.error();
     log.scanner_frame = f.value();
+  }
+  Result<const Json*> qa = member(j, "", "qa", false);
+  if (!qa) return qa.error();
+  if (qa.value()) {
+    Result<ScanQa> q = parse_qa(*qa.value());
+    if (!q) return q.error();
+    log.qa = std::move(q).value();
   }
   Status v = validate(log);
   if (!v) return v.error();

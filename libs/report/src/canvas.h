@@ -32,6 +32,7 @@ inline constexpr Rgb kAccent{0.11, 0.37, 0.30};     // headings: a forest green
 inline constexpr Rgb kBoardLine{0.05, 0.45, 0.85};  // board outlines
 inline constexpr Rgb kSound{0.20, 0.62, 0.25};      // sound knots
 inline constexpr Rgb kDead{0.80, 0.12, 0.10};       // dead knots
+inline constexpr Rgb kWarn{0.75, 0.10, 0.08};       // the scan's QA verdict failed
 
 void set_color(cairo_t* cr, Rgb c, double alpha = 1.0);
 // DejaVu Sans (fonts-dejavu-core) at `size` in user units.

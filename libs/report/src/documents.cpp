@@ -85,6 +85,23 @@ class PdfWriter {
       }
       y_ += 6;
     }
+    // The scan's QA verdict: when it failed, every page says so; the first lists why.
+    if (const auto& qa = c_.run->log.qa; qa && !qa->trusted) {
+      set_font(cr_, 8.5, true);
+      set_color(cr_, kWarn);
+      draw_text(cr_, "NOT TO BE TRUSTED: the scan's QA verdict failed; the position below rests "
+                     "on an uncertain model",
+                kMargin, y_ - 6);
+      y_ += 13;
+      if (page_ == 1) {
+        set_font(cr_, 7.5);
+        for (size_t i = 0; i < qa->warnings.size() && i < 4; ++i) {
+          draw_text(cr_, "QA: " + qa->warnings[i], kMargin, y_ - 6);
+          y_ += 11;
+        }
+      }
+      y_ += 6;
+    }
   }
 
   void footer() {
@@ -535,6 +552,9 @@ Rows position_rows(const Content& c) {
       {"Frame", c.run->log.scanner_frame
                     ? fmt("scanner x, y; z from %.1f mm", c.run->log.scanner_frame->z0_mm)
                     : std::string("log model (no scanner frame)")},
+      {"Scan QA", !c.run->log.qa            ? std::string("—")
+                  : c.run->log.qa->trusted ? std::string("passed")
+                                           : std::string("FAILED: position not to be trusted")},
       {"Value", money(s.chosen.value, s.currency) + expected},
       {"Horns-down", ref(s.horns_down)},
       {"Horns-up", ref(s.horns_up)},
@@ -604,6 +624,12 @@ std::string report_html(const Content& c) {
     << html_escape(or_none(r.run.sawyer_version)) << "</div>\n";
   for (const std::string& n : r.run.scan_notes)
     h << "<div class=\"meta\"><b>Scan: " << html_escape(n) << "</b></div>\n";
+  if (const auto& qa = r.log.qa; qa && !qa->trusted) {
+    h << "<div class=\"qa-failed\" style=\"color:#bf1a14;font-weight:bold;margin:8px 0\">NOT TO BE "
+         "TRUSTED: the scan's QA verdict failed; the position rests on an uncertain model";
+    for (const std::string& w : qa->warnings) h << "<br>QA: " << html_escape(w);
+    h << "</div>\n";
+  }
   h << "<div class=\"cols\"><div><h2>The log</h2>" << html_rows(log_rows(c))
     << "</div><div><h2>The sawing</h2>" << html_rows(position_rows(c)) << "</div></div>\n";
   h << "<h2>End view</h2><div class=\"endview\">";

@@ -66,11 +66,17 @@ inline constexpr double kMaxAbsOmegaRad = 4.0 * kPi;
 inline constexpr double kMaxAbsTwist = 10.0;
 inline constexpr double kMaxExponent = 10.0;  // d_exp; the CT fit keeps it ≤ 3
 inline constexpr double kMaxFitRmsMm = 10000.0;
+// The scan's QA verdict ("qa"): a few stages with a few lines each.
+inline constexpr int kMaxQaStages = 32, kMaxQaLines = 200;
+inline constexpr size_t kMaxQaLineChars = 1000;
 }  // namespace log_limits
 
 // Serialises and parses the JSON text. Parse errors name the key path (e.g.
 // "knots[3].r_end: expected a number").
 std::string log_to_json(const LogModel& log);
+// The "qa" object alone (run.json carries the same), and back.
+std::string qa_json_text(const ScanQa& qa);
+Result<ScanQa> qa_from_json_text(const std::string& text);
 Result<LogModel> log_from_json(const std::string& text);
 
 // File versions; errors are prefixed with the file name. write_log_json is atomic. The reader

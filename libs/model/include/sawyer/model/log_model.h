@@ -129,6 +129,21 @@ struct ScannerFrame {
   Vec3 to_scanner(const Vec3& p) const { return {p.x, p.y, scanner_z(p.z)}; }
 };
 
+// The scan's own verdict on what it measured (log.json "qa", optional; made by
+// ct_pipeline/scan's assess_scan, docs/scan.md "QA verdict"). A model that did not come from a
+// scan has none.
+struct ScanQa {
+  struct Stage {
+    std::string name;         // "levels", "pith", "outline", "heartwood", "knots"
+    bool ok = true;           // false: this stage's result is not to be trusted
+    double confidence = 1.0;  // 0..1
+    std::vector<std::string> notes;  // what was seen, one line each
+  };
+  bool trusted = true;                // false: at least one stage failed its checks
+  std::vector<std::string> warnings;  // the lines a reader must see first, worst first
+  std::vector<Stage> stages;
+};
+
 struct LogModel {
   std::string id;       // e.g. "gran1_spruce"
   std::string species;  // "spruce", "pine", ... free text
@@ -138,6 +153,8 @@ struct LogModel {
   // Absent for models that did not come from a CT scan (or older log.json files): then the
   // frame is the identity at 0 (x, y, z as stored).
   std::optional<ScannerFrame> scanner_frame;
+  // Absent for models that did not come from a scan (and for older log.json files).
+  std::optional<ScanQa> qa;
 
   // What is at point p. Inside a knot means: within half the knot's diameter of its axis
   // point at the same pith distance (the paper's pseudo-nearest point), with r ≤ r_end.

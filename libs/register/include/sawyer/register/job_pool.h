@@ -30,6 +30,9 @@ struct JobResult {
   std::string error;   // the last non-empty line of its stderr when it failed; or why it
                        // could not start, was killed, or ran out of time
   bool ok() const { return exit_code == 0; }
+  // `sawyer run`'s exit 3: every result written, but the scan's QA verdict failed (README).
+  bool warned() const { return exit_code == 3; }
+  bool completed() const { return ok() || warned(); }
 };
 
 struct JobPoolOptions {

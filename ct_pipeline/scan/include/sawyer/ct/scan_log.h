@@ -1,0 +1,68 @@
+// The scan of a log as one call (issue 20, item 5): a CT source in; the log model (stem and
+// knots, in the scanner frame, with the scan's QA verdict), the passes' records, the verdict's
+// detail and a brief summary out. `sawyer scan`, `sawyer run`, the benches and the tests all go
+// through here, so that they measure the same recipe.
+//
+//   auto src = open_ct(folder);                       // then to_scanner_axes()
+//   ScanOptions o;  o.id = "log 17";  o.species = "spruce";
+//   Result<ScanResult> r = scan_log(*src.value(), o, progress);
+//   r.value().log          // LogModel: stem, knots, scanner_frame, qa
+//   r.value().qa.verdict   // also in log.qa
+//   write_scan_qa_images(r.value(), *src.value(), dir / "qa", 4);
+//
+// The stem pass keeps the log's voxels (cropped around the first pith track) for the knot pass,
+// so the source is read once (and a few slices again for the QA images).
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "sawyer/core/result.h"
+#include "sawyer/ct/knot_scan.h"
+#include "sawyer/ct/log_volume.h"
+#include "sawyer/ct/scan_qa.h"
+#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/stem_scan.h"
+#include "sawyer/model/log_model.h"
+
+namespace sawyer::ct {
+
+struct ScanOptions {
+  StemScanOptions stem;  // its `volume` is set by scan_log
+  KnotScanOptions knots;
+  QaOptions qa;
+  bool find_knots = true;
+  int threads = 0;  // 0: every core; overrides the passes' own
+  // The model's id, species and the name its provenance gives the source ("" : "scan").
+  std::string id, species = "unknown", source_name;
+};
+
+struct ScanResult {
+  LogModel log;  // scanner frame (place_in_scanner_frame), qa set
+  StemScan stem;  // the passes' records, in the slices' own axes (pixel (0, 0) at 0, 0)
+  KnotScan knots;
+  std::unique_ptr<LogVolume> volume;  // the voxels the knot pass read
+  ScanQaDetail qa;
+  double seconds = 0;
+};
+
+// (stage, done, total): "stem" per slice read and analysed, then "knots" 0/1 and 1/1.
+using ScanProgress = std::function<void(const char* stage, int done, int total)>;
+
+// Errors: a slice that cannot be read, no log in any slice (the stem pass's messages).
+Result<ScanResult> scan_log(SliceSource& source, const ScanOptions& options,
+                            const ScanProgress& progress = {});
+
+// The summary a terminal shows: slices, speed, stem, knots, and the QA headline.
+std::string scan_brief(const ScanResult& scan, const std::string& input);
+
+// QA images into `dir` (created): `slices` slices with the pith, outline and heartwood border
+// drawn, pith_track.png (pith against z, suspect heights shaded), unrolled_r30/60/90.png (the
+// cylinders at those pith distances with the fitted knots) and knots.csv. Reads the slices
+// again through `source` (the scanned one).
+Status write_scan_qa_images(const ScanResult& scan, SliceSource& source,
+                            const std::filesystem::path& dir, int slices = 4);
+
+}  // namespace sawyer::ct

@@ -1,0 +1,86 @@
+// The scan's verdict on itself (issue 20, item 4): for each stage of the scan (levels, pith,
+// outline, heartwood, knots) a confidence, the heights where it is unsure and why, counts of what
+// was rejected, and whether the stage is to be trusted; assembled into the LogModel's ScanQa
+// (log.json "qa", run.json, the CLI summary, the report's first page).
+//
+//   ScanQaDetail d = assess_scan(stem_scan, &knot_scan, geometry, {});
+//   log.qa = d.verdict;           // trusted, warnings, stages
+//   d.slices[i].pith_suspect      // per slice: why the pith there is not to be believed
+//
+// The checks are consistency checks that need no ground truth: how sharply the rings line up
+// around the pith that was chosen, whether the refined piths agree with the smoothed track,
+// where the pith sits in the log's outline and heartwood border (a pith near the bark or
+// outside the dry core is not a pith), how rough and how steady along z the outline is, how
+// many knots per metre and how many candidates looked like rings. Their thresholds are set in
+// QaOptions and documented with the sweep that calibrated them (docs/scan.md "QA verdict").
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "sawyer/ct/knot_scan.h"
+#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/stem_scan.h"
+#include "sawyer/model/log_model.h"
+
+namespace sawyer::ct {
+
+struct QaOptions {
+  // Pith. A refined pith whose ring alignment (signal share, 0..1) is below this is weak
+  // evidence; one further than pith_residual_mm from the smoothed track disagrees with its
+  // neighbours.
+  double pith_min_ring_share = 0.2;
+  double pith_residual_mm = 1.5;
+  // The pith's distance from the centre of the outline (area centroid), as a fraction of the
+  // mean radius: real logs stay under about 0.4 (compression wood, strong lean); beyond
+  // pith_max_eccentricity the "pith" is something else.
+  double pith_max_eccentricity = 0.45;
+  // A slice's pith is suspect when the ring evidence is weak AND the track disagrees, or when
+  // it is out of place in the outline. The stage fails when more than this share of the
+  // measured slices is suspect, or a run of suspect slices is longer than pith_max_run_mm.
+  double pith_max_suspect_share = 0.25;
+  double pith_max_run_mm = 300.0;
+  // Outline. Per slice: the share of azimuths where no surface was found (filled in), the RMS
+  // of the radius about its own ±5° running median (bark flakes, a touching log, streaks) and
+  // the median change of the radius from the slice before per mm of z (a log's outline
+  // changes slowly).
+  double outline_max_filled = 0.15;
+  double outline_max_roughness_mm = 1.5;
+  double outline_max_jump_mm_per_mm = 0.3;
+  double outline_max_suspect_share = 0.2;
+  // Knots: more than this many per metre (of a section at least 0.5 m long) is not a log's.
+  double knots_max_per_m = 60.0;
+};
+
+struct QaSlice {
+  double z = 0;                  // mm, from the scan's geometry (first slice 0)
+  bool measured = false;         // the stem pass measured this slice
+  double ring_share = 0;         // the refined pith's ring alignment (0 when not refined)
+  double pith_residual_mm = 0;   // refined pith to the smoothed track
+  double eccentricity = 0;       // pith to outline centroid / mean radius
+  bool pith_suspect = false;
+  std::string pith_why;          // "rings weak", "off the track", "near the bark", ...
+  double filled_share = 0;       // outline azimuths filled in
+  double roughness_mm = 0;
+  double jump_mm_per_mm = 0;
+  bool outline_suspect = false;
+};
+
+struct ScanQaDetail {
+  ScanQa verdict;
+  std::vector<QaSlice> slices;  // one per scanned slice
+  // The figures the verdict rests on (also in the stages' notes), for benches and tests.
+  double pith_suspect_share = 0, pith_longest_run_mm = 0, pith_median_ring_share = 0;
+  double outline_suspect_share = 0;
+  double knots_per_m = 0;
+  int knot_candidates_rejected = 0;
+};
+
+// `knots` may be null (a stem-only scan). `geometry` is the scanned source's.
+ScanQaDetail assess_scan(const StemScan& stem, const KnotScan* knots,
+                         const VolumeGeometry& geometry, const QaOptions& options = {});
+
+// One line for a terminal: "QA: trusted" or "QA: NOT TRUSTED — <first warning> (+N more)".
+std::string qa_headline(const ScanQa& qa);
+
+}  // namespace sawyer::ct

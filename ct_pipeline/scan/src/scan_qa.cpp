@@ -1,0 +1,325 @@
+// The scan's verdict on itself (see scan_qa.h).
+#include "sawyer/ct/scan_qa.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "sawyer/core/vec.h"
+
+namespace sawyer::ct {
+
+namespace {
+
+// Area centroid and mean radius of a closed polar outline around `c` (valid entries only);
+// false with fewer than half the azimuths valid.
+bool outline_centre(const std::vector<double>& radius, const std::vector<bool>& valid, Vec2 c,
+                    Vec2* centre, double* mean_r) {
+  const int n = static_cast<int>(radius.size());
+  std::vector<Vec2> pts;
+  double sum_r = 0;
+  for (int k = 0; k < n; ++k) {
+    if (!valid[static_cast<size_t>(k)] || !(radius[static_cast<size_t>(k)] > 0)) continue;
+    const double w = kTwoPi * k / n, r = radius[static_cast<size_t>(k)];
+    pts.push_back({c.x + r * std::cos(w), c.y + r * std::sin(w)});
+    sum_r += r;
+  }
+  if (static_cast<int>(pts.size()) * 2 < n) return false;
+  double a2 = 0, cx = 0, cy = 0;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const Vec2& p = pts[i];
+    const Vec2& q = pts[(i + 1) % pts.size()];
+    const double cr = p.x * q.y - q.x * p.y;
+    a2 += cr;
+    cx += (p.x + q.x) * cr;
+    cy += (p.y + q.y) * cr;
+  }
+  if (std::abs(a2) < 1e-9) return false;
+  *centre = {cx / (3 * a2), cy / (3 * a2)};
+  *mean_r = sum_r / pts.size();
+  return true;
+}
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const size_t m = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(m), v.end());
+  return v[m];
+}
+
+// RMS of the radius about its running median over ±half azimuths (valid entries only).
+double roughness(const std::vector<double>& r, const std::vector<bool>& valid, int half) {
+  const int n = static_cast<int>(r.size());
+  double ss = 0;
+  int cnt = 0;
+  std::vector<double> win;
+  for (int k = 0; k < n; ++k) {
+    if (!valid[static_cast<size_t>(k)]) continue;
+    win.clear();
+    for (int d = -half; d <= half; ++d) {
+      const int j = ((k + d) % n + n) % n;
+      if (valid[static_cast<size_t>(j)]) win.push_back(r[static_cast<size_t>(j)]);
+    }
+    const double m = median_of(win);
+    ss += (r[static_cast<size_t>(k)] - m) * (r[static_cast<size_t>(k)] - m);
+    ++cnt;
+  }
+  return cnt ? std::sqrt(ss / cnt) : 0.0;
+}
+
+// "z 1.20-1.80 m" (heights from the first slice).
+std::string z_span(double z0, double z1) {
+  char s[64];
+  if (std::max(std::abs(z0), std::abs(z1)) >= 1000)
+    std::snprintf(s, sizeof s, "z %.2f-%.2f m", z0 * 1e-3, z1 * 1e-3);
+  else
+    std::snprintf(s, sizeof s, "z %.0f-%.0f mm", z0, z1);
+  return s;
+}
+
+struct Run {
+  double z0 = 0, z1 = 0;
+  int count = 0;
+};
+
+// Runs of consecutive measured slices flagged by `flag` (unmeasured slices do not break a run).
+template <class F>
+std::vector<Run> runs_of(const std::vector<QaSlice>& s, F flag) {
+  std::vector<Run> out;
+  bool open = false;
+  for (const QaSlice& q : s) {
+    if (!q.measured) continue;
+    if (flag(q)) {
+      if (!open) out.push_back({q.z, q.z, 0});
+      open = true;
+      out.back().z1 = q.z;
+      ++out.back().count;
+    } else {
+      open = false;
+    }
+  }
+  return out;
+}
+
+std::string pct(double share) {
+  char s[16];
+  std::snprintf(s, sizeof s, "%.0f %%", 100 * share);
+  return s;
+}
+
+}  // namespace
+
+ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const VolumeGeometry& g,
+                         const QaOptions& o) {
+  ScanQaDetail d;
+  const size_t n = scan.slices.size();
+  d.slices.resize(n);
+  const double dz = g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1)
+                                        : 1.0;
+
+  // ---- per slice ----
+  std::vector<double> shares;
+  int measured = 0, pith_suspects = 0, outline_suspects = 0;
+  const StemSliceRecord* prev = nullptr;
+  for (size_t i = 0; i < n; ++i) {
+    const StemSliceRecord& r = scan.slices[i];
+    QaSlice& q = d.slices[i];
+    q.z = r.z;
+    q.measured = r.measured;
+    if (!r.measured) {
+      prev = nullptr;
+      continue;
+    }
+    ++measured;
+    // Pith.
+    if (r.pith_refined.found) {
+      q.ring_share = r.pith_refined.confidence;
+      q.pith_residual_mm = (r.pith_refined.pith_mm - r.pith).norm();
+      shares.push_back(q.ring_share);
+    }
+    Vec2 centre;
+    double mean_r = 0;
+    const bool have_outline =
+        outline_centre(r.contour.radius, r.contour.valid, r.pith, &centre, &mean_r);
+    if (have_outline && mean_r > 0) q.eccentricity = (r.pith - centre).norm() / mean_r;
+    bool outside_core = false;
+    if (r.heartwood.present) {
+      Vec2 hc;
+      double hr = 0;
+      if (outline_centre(r.heartwood.radius, r.heartwood.valid, r.pith, &hc, &hr) && hr > 0)
+        outside_core = (r.pith - hc).norm() > 0.6 * hr;
+    }
+    const bool weak = !r.pith_refined.found || q.ring_share < o.pith_min_ring_share;
+    const bool off_track = r.pith_outlier || q.pith_residual_mm > o.pith_residual_mm;
+    if (have_outline && q.eccentricity > o.pith_max_eccentricity) {
+      q.pith_suspect = true;
+      q.pith_why = "near the bark";
+    } else if (outside_core) {
+      q.pith_suspect = true;
+      q.pith_why = "outside the heartwood";
+    } else if (weak && off_track) {
+      q.pith_suspect = true;
+      q.pith_why = "rings weak, off the track";
+    }
+    pith_suspects += q.pith_suspect;
+    // Outline.
+    const int na = static_cast<int>(r.contour.radius.size());
+    int filled = 0;
+    for (int k = 0; k < na; ++k) filled += !r.contour.valid[static_cast<size_t>(k)];
+    q.filled_share = na ? static_cast<double>(filled) / na : 1.0;
+    q.roughness_mm = na ? roughness(r.contour.radius, r.contour.valid, std::max(1, na / 72)) : 0.0;
+    if (prev && prev->contour.radius.size() == r.contour.radius.size()) {
+      std::vector<double> dr;
+      for (int k = 0; k < na; ++k)
+        if (r.contour.valid[static_cast<size_t>(k)] && prev->contour.valid[static_cast<size_t>(k)])
+          dr.push_back(std::abs(r.contour.radius[static_cast<size_t>(k)] -
+                                prev->contour.radius[static_cast<size_t>(k)]));
+      // The pith moves between slices too; its move is not the outline's.
+      const double pith_move = (r.pith - prev->pith).norm();
+      q.jump_mm_per_mm = std::max(0.0, median_of(dr) - pith_move) / std::max(dz, 1e-6);
+    }
+    q.outline_suspect = q.filled_share > o.outline_max_filled ||
+                        q.roughness_mm > o.outline_max_roughness_mm ||
+                        q.jump_mm_per_mm > o.outline_max_jump_mm_per_mm;
+    outline_suspects += q.outline_suspect;
+    prev = &r;
+  }
+
+  ScanQa& v = d.verdict;
+  std::vector<std::string> warnings;
+
+  // ---- levels: the scan's own ----
+  {
+    ScanQa::Stage st{"levels", true, 1.0, {}};
+    if (measured == 0) {
+      st.ok = false;
+      st.confidence = 0;
+      st.notes.push_back("no slice holds a log: the scan does not look like a log");
+      warnings.push_back("no slice holds a log: the scan does not look like a log");
+    }
+    v.stages.push_back(std::move(st));
+  }
+
+  // ---- pith ----
+  {
+    ScanQa::Stage st{"pith", true, 1.0, {}};
+    d.pith_suspect_share = measured ? static_cast<double>(pith_suspects) / measured : 1.0;
+    d.pith_median_ring_share = median_of(shares);
+    const auto runs = runs_of(d.slices, [](const QaSlice& q) { return q.pith_suspect; });
+    for (const Run& r : runs) d.pith_longest_run_mm = std::max(d.pith_longest_run_mm, r.z1 - r.z0 + dz);
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "%d of %d slices suspect (%s); median ring alignment %.2f; longest suspect run "
+                  "%.0f mm",
+                  pith_suspects, measured, pct(d.pith_suspect_share).c_str(),
+                  d.pith_median_ring_share, d.pith_longest_run_mm);
+    st.notes.push_back(line);
+    // Where, and why (the most common reason in each run); the three longest runs.
+    std::vector<Run> sorted = runs;
+    std::sort(sorted.begin(), sorted.end(),
+              [](const Run& a, const Run& b) { return a.z1 - a.z0 > b.z1 - b.z0; });
+    for (size_t k = 0; k < sorted.size() && k < 3; ++k) {
+      const Run& r = sorted[k];
+      if (r.count < 2) continue;
+      std::string why;
+      int best = 0;
+      for (const char* reason : {"near the bark", "outside the heartwood", "rings weak, off the track"}) {
+        int c = 0;
+        for (const QaSlice& q : d.slices)
+          if (q.pith_suspect && q.z >= r.z0 && q.z <= r.z1 && q.pith_why == reason) ++c;
+        if (c > best) best = c, why = reason;
+      }
+      st.notes.push_back("pith uncertain over " + z_span(r.z0, r.z1) + ": " + why);
+    }
+    st.confidence = std::clamp(1.0 - d.pith_suspect_share / std::max(o.pith_max_suspect_share, 1e-6) * 0.5, 0.0, 1.0);
+    if (measured > 0 && (d.pith_suspect_share > o.pith_max_suspect_share ||
+                         d.pith_longest_run_mm > o.pith_max_run_mm)) {
+      st.ok = false;
+      std::string w = "pith uncertain on " + pct(d.pith_suspect_share) + " of the slices";
+      if (!sorted.empty() && sorted.front().count >= 2)
+        w += " (worst " + z_span(sorted.front().z0, sorted.front().z1) + ")";
+      warnings.push_back(w);
+    }
+    v.stages.push_back(std::move(st));
+  }
+
+  // ---- outline ----
+  {
+    ScanQa::Stage st{"outline", true, 1.0, {}};
+    d.outline_suspect_share = measured ? static_cast<double>(outline_suspects) / measured : 1.0;
+    std::vector<double> rough, fill;
+    for (const QaSlice& q : d.slices)
+      if (q.measured) rough.push_back(q.roughness_mm), fill.push_back(q.filled_share);
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "%d of %d slices suspect (%s); median roughness %.2f mm; median share filled in %s",
+                  outline_suspects, measured, pct(d.outline_suspect_share).c_str(),
+                  median_of(rough), pct(median_of(fill)).c_str());
+    st.notes.push_back(line);
+    st.confidence = std::clamp(1.0 - d.outline_suspect_share, 0.0, 1.0);
+    if (measured > 0 && d.outline_suspect_share > o.outline_max_suspect_share) {
+      st.ok = false;
+      warnings.push_back("outline uncertain on " + pct(d.outline_suspect_share) +
+                         " of the slices (surface not found, rough or jumping)");
+    }
+    v.stages.push_back(std::move(st));
+  }
+
+  // ---- heartwood ----
+  {
+    ScanQa::Stage st{"heartwood", true, 1.0, {}};
+    int present = 0;
+    for (const auto& r : scan.slices) present += r.measured && r.heartwood.present;
+    char line[160];
+    std::snprintf(line, sizeof line, "dry core seen on %d of %d slices", present, measured);
+    st.notes.push_back(line);
+    if (measured > 0 && present > 0 && present * 2 < measured) {
+      st.confidence = 0.5;
+      st.notes.push_back("dry core seen on fewer than half the slices");
+    }
+    v.stages.push_back(std::move(st));
+  }
+
+  // ---- knots ----
+  if (knots) {
+    ScanQa::Stage st{"knots", true, 1.0, {}};
+    const double length_m = std::max(0.5, measured * dz * 1e-3);
+    d.knots_per_m = knots->knots.size() / length_m;
+    d.knot_candidates_rejected = static_cast<int>(knots->rejected.size());
+    char line[256];
+    std::snprintf(line, sizeof line, "%zu knots (%.1f per m); %zu candidates not fitted",
+                  knots->knots.size(), knots->knots.size() / std::max(1e-3, measured * dz * 1e-3),
+                  knots->rejected.size());
+    st.notes.push_back(line);
+    if (d.knots_per_m > o.knots_max_per_m) {
+      st.ok = false;
+      st.confidence = 0.2;
+      char w[160];
+      std::snprintf(w, sizeof w, "%.0f knots per m: more than a log has (rings taken for knots?)",
+                    d.knots_per_m);
+      warnings.push_back(w);
+    }
+    // Knots are measured around the pith: an untrusted pith makes them untrusted too.
+    if (!v.stages[1].ok) {
+      st.confidence = std::min(st.confidence, 0.5);
+      st.notes.push_back("measured around an uncertain pith");
+    }
+    v.stages.push_back(std::move(st));
+  }
+
+  v.trusted = true;
+  for (const auto& st : v.stages) v.trusted = v.trusted && st.ok;
+  v.warnings = std::move(warnings);
+  return d;
+}
+
+std::string qa_headline(const ScanQa& qa) {
+  if (qa.trusted && qa.warnings.empty()) return "QA: trusted";
+  std::string s = qa.trusted ? "QA: trusted, with notes: " : "QA: NOT TRUSTED: ";
+  for (size_t i = 0; i < qa.warnings.size(); ++i) s += (i ? "; " : "") + qa.warnings[i];
+  return s;
+}
+
+}  // namespace sawyer::ct

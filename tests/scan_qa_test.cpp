@@ -1,0 +1,235 @@
+// The scan's QA verdict (ct_pipeline/scan/scan_qa.h) and the scan as one call (scan_log.h):
+// each check fails the stage it guards on a record built to break it and passes a sound one;
+// the verdict round-trips through log.json and bad "qa" objects are refused by name; a scan of a
+// default phantom section is trusted and in the scanner frame.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sawyer/core/vec.h"
+#include "sawyer/ct/phantom.h"
+#include "sawyer/ct/phantom_source.h"
+#include "sawyer/ct/scan_log.h"
+#include "sawyer/ct/scan_qa.h"
+#include "sawyer/model/log_json.h"
+#include "sawyer/test/test_util.h"
+
+namespace sawyer::ct {
+namespace {
+
+// A contour around `pith` tracing the circle of radius `R` about `centre`.
+ContourResult circle_around(Vec2 pith, Vec2 centre, double R, int n = 360) {
+  ContourResult c;
+  const Vec2 d = centre - pith;
+  const double dist = d.norm(), phi0 = std::atan2(d.y, d.x);
+  for (int k = 0; k < n; ++k) {
+    const double phi = kTwoPi * k / n - phi0;
+    const double s = dist * std::sin(phi);
+    c.radius.push_back(dist * std::cos(phi) + std::sqrt(R * R - s * s));
+    c.valid.push_back(true);
+    c.bark_mm.push_back(0);
+  }
+  return c;
+}
+
+// `n` slices 5 mm apart of a straight round log (radius 120 mm) with a sound pith.
+StemScan sound_scan(int n = 40) {
+  StemScan s;
+  for (int i = 0; i < n; ++i) {
+    StemSliceRecord r;
+    r.z = 5.0 * i;
+    r.measured = true;
+    r.pith = {200, 200};
+    r.centre = r.pith;
+    r.pith_refined.found = true;
+    r.pith_refined.confidence = 0.6;
+    r.pith_refined.pith_mm = r.pith + Vec2{0.1, -0.05};
+    r.contour = circle_around(r.pith, {203, 198}, 120);
+    s.slices.push_back(std::move(r));
+  }
+  return s;
+}
+
+VolumeGeometry geometry_of(int n) {
+  VolumeGeometry g;
+  g.width = g.height = 512;
+  g.spacing_x = g.spacing_y = 0.8;
+  for (int i = 0; i < n; ++i) g.z.push_back(5.0 * i);
+  return g;
+}
+
+const ScanQa::Stage& stage(const ScanQa& qa, const std::string& name) {
+  for (const auto& s : qa.stages)
+    if (s.name == name) return s;
+  static ScanQa::Stage none;
+  ADD_FAILURE() << "no stage " << name;
+  return none;
+}
+
+TEST(AssessScan, ASoundRecordIsTrusted) {
+  const StemScan s = sound_scan();
+  KnotScan k;
+  k.knots.resize(4);
+  const ScanQaDetail d = assess_scan(s, &k, geometry_of(40));
+  EXPECT_TRUE(d.verdict.trusted) << qa_headline(d.verdict);
+  EXPECT_TRUE(d.verdict.warnings.empty());
+  EXPECT_EQ(d.pith_suspect_share, 0.0);
+  EXPECT_EQ(d.outline_suspect_share, 0.0);
+  EXPECT_NEAR(d.slices[3].eccentricity, std::hypot(3, 2) / 120, 0.01);
+  for (const char* name : {"levels", "pith", "outline", "heartwood", "knots"})
+    EXPECT_TRUE(stage(d.verdict, name).ok) << name;
+  EXPECT_EQ(qa_headline(d.verdict), "QA: trusted");
+}
+
+TEST(AssessScan, APithNearTheBarkFailsThePithStage) {
+  StemScan s = sound_scan();
+  // Half the log: the "pith" 80 mm from the centre of a 120 mm log (a knot streak, say).
+  for (size_t i = 10; i < 30; ++i) s.slices[i].contour = circle_around({200, 200}, {280, 200}, 120);
+  const ScanQaDetail d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_FALSE(d.verdict.trusted);
+  EXPECT_FALSE(stage(d.verdict, "pith").ok);
+  EXPECT_TRUE(stage(d.verdict, "outline").ok);
+  EXPECT_NEAR(d.pith_suspect_share, 0.5, 1e-9);
+  EXPECT_EQ(d.slices[12].pith_why, "near the bark");
+  ASSERT_FALSE(d.verdict.warnings.empty());
+  EXPECT_NE(d.verdict.warnings[0].find("pith uncertain"), std::string::npos)
+      << d.verdict.warnings[0];
+  // Where: the run of suspect slices, 50-145 mm, is named in the stage's notes.
+  bool named = false;
+  for (const std::string& n : stage(d.verdict, "pith").notes)
+    named = named || n.find("z 50-145 mm: near the bark") != std::string::npos;
+  EXPECT_TRUE(named);
+}
+
+TEST(AssessScan, WeakRingsAloneAreNotAFailureButWeakAndOffTrackIs) {
+  StemScan s = sound_scan();
+  for (auto& r : s.slices) r.pith_refined.confidence = 0.05;  // rings barely seen, on track
+  EXPECT_TRUE(assess_scan(s, nullptr, geometry_of(40)).verdict.trusted);
+  for (size_t i = 0; i < 20; ++i) s.slices[i].pith_refined.pith_mm = s.slices[i].pith + Vec2{4, 0};
+  const ScanQaDetail d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_FALSE(stage(d.verdict, "pith").ok);
+  EXPECT_EQ(d.slices[0].pith_why, "rings weak, off the track");
+}
+
+TEST(AssessScan, AnOutlineNotFoundOnAQuarterOfTheCircleFailsTheOutlineStage) {
+  StemScan s = sound_scan();
+  for (auto& r : s.slices)
+    for (int k = 0; k < 90; ++k) r.contour.valid[static_cast<size_t>(k)] = false;
+  const ScanQaDetail d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_FALSE(d.verdict.trusted);
+  EXPECT_FALSE(stage(d.verdict, "outline").ok);
+  EXPECT_TRUE(stage(d.verdict, "pith").ok);
+  EXPECT_NEAR(d.slices[5].filled_share, 0.25, 1e-9);
+}
+
+TEST(AssessScan, AJumpingOutlineFailsTheOutlineStage) {
+  StemScan s = sound_scan();
+  for (size_t i = 0; i < s.slices.size(); i += 2)  // every other slice 8 mm bigger
+    s.slices[i].contour = circle_around({200, 200}, {203, 198}, 128);
+  const ScanQaDetail d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_FALSE(stage(d.verdict, "outline").ok);
+  EXPECT_GT(d.slices[3].jump_mm_per_mm, 1.0);
+}
+
+TEST(AssessScan, HundredsOfKnotsPerMetreFailTheKnotStage) {
+  const StemScan s = sound_scan();  // 200 mm of log: 0.5 m counted
+  KnotScan k;
+  k.knots.resize(45);
+  const ScanQaDetail d = assess_scan(s, &k, geometry_of(40));
+  EXPECT_FALSE(stage(d.verdict, "knots").ok);
+  EXPECT_NEAR(d.knots_per_m, 90, 1e-9);
+  k.knots.resize(12);
+  EXPECT_TRUE(stage(assess_scan(s, &k, geometry_of(40)).verdict, "knots").ok);
+}
+
+TEST(AssessScan, NoLogInAnySliceDoesNotLookLikeALog) {
+  StemScan s = sound_scan(10);
+  for (auto& r : s.slices) r.measured = false;
+  const ScanQaDetail d = assess_scan(s, nullptr, geometry_of(10));
+  EXPECT_FALSE(d.verdict.trusted);
+  EXPECT_FALSE(stage(d.verdict, "levels").ok);
+}
+
+TEST(ScanQaJson, RoundTripsThroughLogJsonAndRefusesBadObjects) {
+  LogModel log = test::sample_model("pine_8");
+  ScanQa qa;
+  qa.trusted = false;
+  qa.warnings = {"pith uncertain on 40 % of the slices (worst z 1.20-1.80 m)"};
+  qa.stages.push_back({"pith", false, 0.3, {"12 of 30 slices suspect", "rings weak"}});
+  qa.stages.push_back({"knots", true, 0.9, {}});
+  log.qa = qa;
+  Result<LogModel> back = log_from_json(log_to_json(log));
+  ASSERT_TRUE(back) << back.error().message();
+  ASSERT_TRUE(back.value().qa.has_value());
+  const ScanQa& b = *back.value().qa;
+  EXPECT_FALSE(b.trusted);
+  EXPECT_EQ(b.warnings, qa.warnings);
+  ASSERT_EQ(b.stages.size(), 2u);
+  EXPECT_EQ(b.stages[0].name, "pith");
+  EXPECT_FALSE(b.stages[0].ok);
+  EXPECT_DOUBLE_EQ(b.stages[0].confidence, 0.3);
+  EXPECT_EQ(b.stages[0].notes, qa.stages[0].notes);
+  // A model without a verdict stays without one.
+  log.qa.reset();
+  EXPECT_FALSE(log_from_json(log_to_json(log)).value().qa.has_value());
+
+  // Refusals name the key.
+  auto refused = [](const std::string& qa_text) {
+    Result<ScanQa> r = qa_from_json_text(qa_text);
+    return r ? std::string("accepted") : r.error().message();
+  };
+  EXPECT_NE(refused(R"({"warnings": []})").find("qa.trusted"), std::string::npos);
+  EXPECT_NE(refused(R"({"trusted": "yes"})").find("qa.trusted"), std::string::npos);
+  EXPECT_NE(refused(R"({"trusted": true, "stages": [{"stage": "pith", "ok": true,
+                        "confidence": 2}]})")
+                .find("qa.stages[0].confidence"),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"trusted": true, "warnings": [3]})").find("qa.warnings[0]"),
+            std::string::npos);
+  EXPECT_NE(refused(R"({"trusted": true, "warnings": [")" + std::string(2000, 'x') + R"("]})")
+                .find("longer than"),
+            std::string::npos);
+}
+
+// The one call on a short section of a default phantom: the model is in the scanner frame, the
+// pith where the truth has it, and the verdict trusts it.
+TEST(ScanLog, ADefaultPhantomSectionIsScannedAndTrusted) {
+  const LogModel& truth_log = test::sample_model("pine_8");
+  PhantomOptions o;
+  o.image_size = 320;
+  o.pixel_mm = 1.0;
+  o.slice_spacing_mm = 5.0;
+  o.from_mm = 1500;
+  o.to_mm = 1700;
+  o.threads = 1;
+  auto ph = Phantom::create(truth_log, o);
+  ASSERT_TRUE(ph) << ph.error().message();
+  PhantomSource src(*ph.value(), true);
+  ScanOptions so;
+  so.id = "section";
+  so.species = "pine";
+  auto r = scan_log(src, so);
+  ASSERT_TRUE(r) << r.error().message();
+  const ScanResult& s = r.value();
+  ASSERT_TRUE(s.log.qa.has_value());
+  EXPECT_TRUE(s.log.qa->trusted) << qa_headline(*s.log.qa);
+  EXPECT_EQ(s.log.id, "section");
+  ASSERT_TRUE(s.log.scanner_frame.has_value());
+  const LogModel truth = ph.value()->truth_log();
+  // The model's pith is the pass's plus the file's origin (scanner frame).
+  const VolumeGeometry& g = src.geometry();
+  std::vector<double> err;
+  for (const StemSliceRecord& rec : s.stem.slices)
+    err.push_back((rec.pith - truth.stem.pith_at(rec.z)).norm());
+  std::sort(err.begin(), err.end());
+  EXPECT_LT(err[err.size() / 2], 0.5);
+  EXPECT_NEAR(s.log.stem.pith[0].x, s.stem.stem.pith[0].x + g.origin.x, 1e-9);
+  EXPECT_NE(scan_brief(s, "section").find("QA: trusted"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace sawyer::ct
