@@ -85,6 +85,11 @@ TEST(RunCli, WritesScanSawingReportAndRegistersTheLog) {
   ASSERT_GE(run["stages"].size(), 2u);
   EXPECT_EQ(run["stages"][0]["name"], "scan");
   EXPECT_EQ(run["stages"][1]["name"], "saw");
+  // The scan's QA verdict trusts this scan: run.json says so, and so does the summary.
+  ASSERT_TRUE(run.contains("qa")) << run.dump(1);
+  EXPECT_EQ(run["qa"]["trusted"], true) << run["qa"].dump(1);
+  EXPECT_EQ(run["position_trusted"], true);
+  EXPECT_NE(out.find("QA: trusted"), std::string::npos) << out;
   // The summary ends with where the report is.
   EXPECT_NE(out.find("report.pdf"), std::string::npos) << out;
   EXPECT_NE(out.find("volume yield"), std::string::npos) << out;
@@ -138,6 +143,59 @@ TEST(RunCli, WritesScanSawingReportAndRegistersTheLog) {
   auto again = reg.value().find(fs::canonical(ct).string());
   ASSERT_TRUE(again && again.value());
   EXPECT_EQ(again.value()->scans, 2);
+}
+
+// A scan whose QA verdict fails (the log is wider than the field of view, so the image's edge
+// cuts its outline): everything is still written, the verdict is in log.json and run.json, the
+// report's first page says the position is not to be trusted, and the exit code is 3.
+TEST(RunCli, AScanThatFailsItsQaIsWrittenMarkedAndExitsThree) {
+  const fs::path ct = test::cached_phantom(
+      "qa_clipped", test::quoted(test::sample_log("pine_8") / "log.json") +
+                        " --from-mm 1500 --to-mm 1700 --size 240 --pixel-mm 1.0 --offset-x-mm 40"
+                        " --allow-clipped --seed 4");
+  ASSERT_FALSE(ct.empty());
+  test::TempDir dir;
+  std::string out;
+  ASSERT_EQ(test::run_sawyer("scan " + test::quoted(ct) + " -o " + test::quoted(dir / "scan"), &out),
+            3)
+      << out;
+  EXPECT_NE(out.find("QA: NOT TRUSTED"), std::string::npos) << out;
+  EXPECT_NE(out.find("the image's edge"), std::string::npos) << out;
+  const Json log = read_json(dir / "scan" / "log.json");
+  ASSERT_FALSE(log.is_discarded());
+  EXPECT_EQ(log["qa"]["trusted"], false) << log["qa"].dump(1);
+  EXPECT_TRUE(fs::exists(dir / "scan" / "qa" / "pith_track.png"));
+
+  // The cut outline leaves a narrow log: two small boards.
+  const fs::path pattern = dir / "small.json";
+  test::write_file(pattern, R"({"format": "sawyer-pattern/1", "name": "small",
+    "wane": {"min_length_mm": 100, "length_step_mm": 100},
+    "boards": [
+      {"name": "1", "u_mm": -13, "v_mm": 0, "thickness_mm": 25, "width_mm": 75},
+      {"name": "2", "u_mm": 13, "v_mm": 0, "thickness_mm": 25, "width_mm": 75}]})");
+  const std::string cmd = "run " + test::quoted(ct) + " -o " + test::quoted(dir / "out") +
+                          " --pattern " + test::quoted(pattern) + " --db " +
+                          test::quoted(dir / "logs.sqlite") + " --quiet";
+  ASSERT_EQ(test::run_sawyer(cmd, &out), 3) << out;
+  EXPECT_NE(out.find("completed with warnings"), std::string::npos) << out;
+  for (const char* f : {"scan/log.json", "sawing.json", "run.json", "report/report.pdf",
+                        "report/report.html"})
+    EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  const Json run = read_json(dir / "out" / "run.json");
+  ASSERT_FALSE(run.is_discarded());
+  EXPECT_EQ(run["position_trusted"], false);
+  EXPECT_EQ(run["qa"]["trusted"], false);
+  ASSERT_FALSE(run["qa"]["warnings"].empty());
+  EXPECT_EQ(rows(dir / "logs.sqlite"), 1);  // registered all the same
+  std::string pdf_text;
+  if (test::run_command("command -v pdftotext >/dev/null", &pdf_text) == 0) {
+    ASSERT_EQ(test::run_command("pdftotext -l 1 " +
+                                    test::quoted(dir / "out" / "report" / "report.pdf") + " -",
+                                &pdf_text),
+              0);
+    EXPECT_NE(pdf_text.find("NOT TO BE TRUSTED"), std::string::npos) << pdf_text;
+    EXPECT_NE(pdf_text.find("image's edge"), std::string::npos) << pdf_text;
+  }
 }
 
 TEST(RunCli, GivenPositionIsTheChosenOne) {

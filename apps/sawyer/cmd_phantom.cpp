@@ -174,6 +174,8 @@ void add_phantom_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_flag("--clutter", o.clutter, "add steel support bars and a chain");
   cmd->add_flag("--second-log", o.second_log,
                 "a second log (the same model end for end) touching this one on the +x side");
+  cmd->add_flag("--allow-clipped", o.allow_clipped,
+                "a log larger than the field of view is cut by the image's edge (else refused)");
   cmd->add_flag("--no-bed", c->no_bed, "leave out the scanner bed");
   cmd->add_option("--bed-gap-mm", o.bed_gap_mm,
                   "belt below the log's lowest point, mm (0: the log lies on it)")

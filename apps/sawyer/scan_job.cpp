@@ -1,6 +1,7 @@
 // The work of `sawyer scan` (see scan_job.h).
 #include "scan_job.h"
 
+#include <algorithm>
 #include <string>
 #include <utility>
 
@@ -53,7 +54,9 @@ std::string qa_report(const ScanQa& qa) {
   std::string s = ct::qa_headline(qa);
   for (const ScanQa::Stage& st : qa.stages) {
     if (st.ok) continue;
-    for (const std::string& n : st.notes) s += "\n  " + st.name + ": " + n;
+    for (const std::string& n : st.notes)
+      if (std::find(qa.warnings.begin(), qa.warnings.end(), n) == qa.warnings.end())
+        s += "\n  " + st.name + ": " + n;
   }
   return s;
 }

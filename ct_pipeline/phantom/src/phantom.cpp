@@ -513,7 +513,7 @@ Status Phantom::prepare() {
                     std::max(std::abs(pith_[i].x - centre), std::abs(pith_[i].y - centre)) + ext);
   }
   const double half = 0.5 * W * px;
-  if (need > half) {
+  if (need > half && !o.allow_clipped) {
     const double px_min = std::ceil(need / (0.5 * W) * 1000.0) / 1000.0;
     return Error("log does not fit the field of view: it reaches " + fmt(need, 1) +
                  " mm from the image centre, a " + std::to_string(W) + " x " + fmt(px, 3) +

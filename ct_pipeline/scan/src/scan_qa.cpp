@@ -121,7 +121,7 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
 
   // ---- per slice ----
   std::vector<double> shares;
-  int measured = 0, pith_suspects = 0, outline_suspects = 0;
+  int measured = 0, pith_suspects = 0, outline_suspects = 0, at_edge = 0;
   const StemSliceRecord* prev = nullptr;
   for (size_t i = 0; i < n; ++i) {
     const StemSliceRecord& r = scan.slices[i];
@@ -180,7 +180,21 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       const double pith_move = (r.pith - prev->pith).norm();
       q.jump_mm_per_mm = std::max(0.0, median_of(dr) - pith_move) / std::max(dz, 1e-6);
     }
-    q.outline_suspect = q.filled_share > o.outline_max_filled ||
+    if (g.width > 0 && g.height > 0) {
+      int edge = 0, seen = 0;
+      const double xmax = (g.width - 1.5) * g.spacing_x, ymax = (g.height - 1.5) * g.spacing_y;
+      for (int k = 0; k < na; ++k) {
+        if (!r.contour.valid[static_cast<size_t>(k)]) continue;
+        const double w = kTwoPi * k / na, rr = r.contour.radius[static_cast<size_t>(k)];
+        const double x = r.pith.x + rr * std::cos(w), y = r.pith.y + rr * std::sin(w);
+        ++seen;
+        edge += x < 1.5 * g.spacing_x || y < 1.5 * g.spacing_y || x > xmax || y > ymax;
+      }
+      q.at_edge_share = seen ? static_cast<double>(edge) / seen : 0.0;
+      if (q.at_edge_share > o.outline_max_at_edge) ++at_edge;
+    }
+    q.outline_suspect = q.at_edge_share > o.outline_max_at_edge ||
+                        q.filled_share > o.outline_max_filled ||
                         q.roughness_mm > o.outline_max_roughness_mm ||
                         q.jump_mm_per_mm > o.outline_max_jump_mm_per_mm;
     outline_suspects += q.outline_suspect;
@@ -259,7 +273,15 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                   median_of(rough), pct(median_of(fill)).c_str());
     st.notes.push_back(line);
     st.confidence = std::clamp(1.0 - d.outline_suspect_share, 0.0, 1.0);
-    if (measured > 0 && d.outline_suspect_share > o.outline_max_suspect_share) {
+    d.outline_at_edge_share = measured ? static_cast<double>(at_edge) / measured : 0.0;
+    if (measured > 0 && at_edge >= std::min(2, measured)) {  // one slice can be a log end's odd shape
+      st.ok = false;
+      const std::string w = "the log reaches the image's edge on " + std::to_string(at_edge) +
+                            " of " + std::to_string(measured) +
+                            " slices: cut by the field of view, its outline there is the image's";
+      st.notes.push_back(w);
+      warnings.push_back(w);
+    } else if (measured > 0 && d.outline_suspect_share > o.outline_max_suspect_share) {
       st.ok = false;
       warnings.push_back("outline uncertain on " + pct(d.outline_suspect_share) +
                          " of the slices (surface not found, rough or jumping)");

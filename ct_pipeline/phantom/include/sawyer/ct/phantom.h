@@ -112,6 +112,9 @@ struct PhantomOptions {
   // one at their closest slice (it may reach beyond the image, as on a real bed).
   bool second_log = false;
   int drop_slices = 0;  // missing slices (never the first or the last)
+  // A log larger than the field of view (or placed off it) is refused unless this is set; then
+  // the image's edge cuts it, as a scanner too small for the log does.
+  bool allow_clipped = false;
 
   // The condition space (docs/phantom.md "Condition space"). Every default is the phantom's
   // original behaviour, so existing scans are unchanged.

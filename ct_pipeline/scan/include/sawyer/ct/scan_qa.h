@@ -48,6 +48,10 @@ struct QaOptions {
   double outline_max_roughness_mm = 1.5;
   double outline_max_jump_mm_per_mm = 0.3;
   double outline_max_suspect_share = 0.2;
+  // The log is cut by the image (field of view too small, or the log off centre) when more than
+  // this share of a slice's outline lies within 1.5 pixels of the image's edge: the outline there
+  // is the image's, not the log's.
+  double outline_max_at_edge = 0.02;
   // Knots: more than this many per metre (of a section at least 0.5 m long) is not a log's.
   double knots_max_per_m = 60.0;
 };
@@ -63,6 +67,7 @@ struct QaSlice {
   double filled_share = 0;       // outline azimuths filled in
   double roughness_mm = 0;
   double jump_mm_per_mm = 0;
+  double at_edge_share = 0;      // outline azimuths at the image's edge
   bool outline_suspect = false;
 };
 
@@ -72,6 +77,7 @@ struct ScanQaDetail {
   // The figures the verdict rests on (also in the stages' notes), for benches and tests.
   double pith_suspect_share = 0, pith_longest_run_mm = 0, pith_median_ring_share = 0;
   double outline_suspect_share = 0;
+  double outline_at_edge_share = 0;  // slices cut by the image's edge
   double knots_per_m = 0;
   int knot_candidates_rejected = 0;
 };
