@@ -33,16 +33,19 @@
 namespace sawyer::ct {
 namespace {
 
-constexpr float kAirHu = -1000.0f;
 // Ray stops after this much air beyond the log.
 constexpr double kAirStopMm = 10.0;
 // A ray's walk starts this far inside the previous ray's edge (from the pith when that fails).
 constexpr double kHintMm = 12.0;
 // Inside a surface candidate: the window checked for wood, mm under the edge.
 constexpr double kInsideNearMm = 0.8, kInsideFarMm = 4.0;
-// Wood range for the inside median, and the brightest sample allowed there (knots are ~0 HU,
-// the belt +200, the rails +2200).
-constexpr double kWoodMinHu = -380.0, kWoodMaxHu = 120.0, kWoodPeakHu = 400.0;
+// The wood range for the inside median and the brightest sample allowed there are options
+// (ContourOptions::wood_min_hu ...), from the scan's levels in the stem pass.
+// Bark level: measured on every kBarkStride-th ray, from kBarkNearMm to kBarkFarMm inside the
+// log's edge with air (the outer bark; the inner bark is denser, so the level midway between
+// wood and it is crossed at or just outside the inner bark's edge).
+constexpr int kBarkStride = 8;
+constexpr double kBarkNearMm = 0.5, kBarkFarMm = 2.0;
 // Sub-pixel refinement: outside level taken this far beyond the edge; search half-width; step.
 constexpr double kOutsideMm = 1.0, kFineHalfMm = 1.2, kFineStepMm = 0.1;
 // Bark: search this far beyond the surface for air.
@@ -64,8 +67,9 @@ constexpr double kHeartStepPx = 2.0;     // step along the rays, pixels
 
 class Sampler {
  public:
-  Sampler(const Slice& s, const VolumeGeometry& g)
-      : d_(s.hu.data()),
+  Sampler(const Slice& s, const VolumeGeometry& g, float air_hu = -1000.0f)
+      : air_(air_hu),
+        d_(s.hu.data()),
         w_(s.width),
         h_(s.height),
         isx_(1.0 / g.spacing_x),
@@ -74,7 +78,7 @@ class Sampler {
   // Bilinear HU at scanner (x, y) mm; air outside the image.
   float at(double x, double y) const {
     const double c = x * isx_, r = y * isy_;
-    if (!(c >= 0.0 && r >= 0.0 && c <= w_ - 1 && r <= h_ - 1)) return kAirHu;
+    if (!(c >= 0.0 && r >= 0.0 && c <= w_ - 1 && r <= h_ - 1)) return air_;
     int c0 = static_cast<int>(c), r0 = static_cast<int>(r);
     c0 = std::min(c0, w_ - 2);
     r0 = std::min(r0, h_ - 2);
@@ -86,6 +90,7 @@ class Sampler {
   }
 
  private:
+  float air_;
   const float* d_;
   int w_, h_;
   double isx_, isy_;
@@ -262,6 +267,48 @@ bool robust_fourier(const std::vector<double>& r, const std::vector<bool>& valid
   return true;
 }
 
+// The slice's bark level: on every kBarkStride-th ray from the pith, the median of the profile
+// kBarkNearMm to kBarkFarMm (at least a pixel and a pixel and a half) inside the outermost fall
+// through the air/log threshold (the log's edge with air); the median over the rays. NaN when no
+// ray reached air.
+double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
+                  const ContourOptions& o) {
+  const int air_stop = static_cast<int>(std::ceil(kAirStopMm / h));
+  const double near = std::max(kBarkNearMm, h), far = near + std::max(kBarkFarMm - kBarkNearMm, 1.5 * h);
+  std::vector<float> prof, win, per_ray;
+  for (int k = 0; k < o.n_angles; k += kBarkStride) {
+    const double w = kTwoPi * k / o.n_angles;
+    const double c = std::cos(w), s = std::sin(w);
+    prof.clear();
+    int air_run = 0;
+    bool seen = false;
+    for (int j = 0; j * h <= reach; ++j) {
+      const float v = img.at(pith.x + j * h * c, pith.y + j * h * s);
+      prof.push_back(v);
+      if (v < o.wood_hu) {
+        if (seen && ++air_run >= air_stop) break;
+      } else {
+        seen = true;
+        air_run = 0;
+      }
+    }
+    int e = -1;
+    for (int j = static_cast<int>(prof.size()) - 2; j >= 0; --j)
+      if (prof[j] >= o.wood_hu && prof[j + 1] < o.wood_hu) {
+        e = j;
+        break;
+      }
+    if (e < 0) continue;
+    const double re = e * h + h * (prof[e] - o.wood_hu) / std::max(1e-6f, prof[e] - prof[e + 1]);
+    if (re - far < 0.5 * re) continue;  // a small object: not the log's edge
+    win.clear();
+    for (double r = re - far; r <= re - near + 1e-9; r += 0.25)
+      win.push_back(img.at(pith.x + r * c, pith.y + r * s));
+    per_ray.push_back(static_cast<float>(median_inplace(win)));
+  }
+  return per_ray.size() >= 3 ? median_inplace(per_ray) : NAN;
+}
+
 }  // namespace
 
 ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
@@ -274,17 +321,27 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
   out.bark_mm.assign(n, 0.0);
   if (!slice_ok(slice, geometry)) return out;
 
-  const Sampler img(slice, geometry);
+  const Sampler img(slice, geometry, static_cast<float>(options.air_hu));
   const double h = std::min(geometry.spacing_x, geometry.spacing_y);  // coarse step, mm
   const double reach = max_reach(slice, geometry, pith_mm);
   const int air_stop = static_cast<int>(std::ceil(kAirStopMm / h));
   const int in_near = std::max(1, static_cast<int>(std::floor(kInsideNearMm / h)));
   const int in_far = std::max(in_near + 2, static_cast<int>(std::ceil(kInsideFarMm / h)));
   const int fine_n = static_cast<int>(std::lround(2 * kFineHalfMm / kFineStepMm)) + 1;
-  const double air_level = 0.5 * (options.wood_hu + kAirHu);  // bark → air crossing
-  // Wood → bark level: midway between wet sapwood and inner bark, which also lies between
-  // wood and air, so bark gaps are found the same way.
-  const double edge_level = options.under_bark_hu;
+  const double air_level = 0.5 * (options.wood_hu + options.air_hu);  // bark → air crossing
+  // Wood → bark level: midway between the outer wood (wet sapwood) and the bark, which also
+  // lies between wood and air, so bark gaps are found the same way. From the scan's levels and
+  // this slice's bark when given, else the options' fixed level. The inside of a surface must be
+  // at least as dense as the level (bark is not; wood is).
+  double edge_level = options.under_bark_hu, wood_min = options.wood_min_hu;
+  if (std::isfinite(options.outer_wood_hu)) {
+    out.bark_hu = bark_level(img, pith_mm, reach, h, options);
+    const bool bark_seen = std::isfinite(out.bark_hu) &&
+                           options.outer_wood_hu - out.bark_hu >= options.bark_sigmas * options.noise_hu;
+    edge_level = 0.5 * (options.outer_wood_hu + (bark_seen ? out.bark_hu : options.air_hu));
+    wood_min = edge_level;
+  }
+  out.under_bark_hu = edge_level;
 
   std::vector<float> prof, inside, fine(fine_n);
   std::vector<double> edge_r(n, 0.0);
@@ -325,7 +382,7 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
         }
         if (inside.empty()) continue;
         const double med = median_inplace(inside);
-        if (med < kWoodMinHu || med > kWoodMaxHu || peak > kWoodPeakHu) continue;
+        if (med < wood_min || med > options.wood_max_hu || peak > options.wood_peak_hu) continue;
         edge = j;
         in_level = med;
         break;
@@ -348,7 +405,7 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
     const double rc =
         edge * h + h * (prof[edge] - edge_level) / std::max(1e-6f, prof[edge] - prof[edge + 1]);
     const double out_v = std::max<double>(
-        kAirHu, img.at(pith_mm.x + (rc + kOutsideMm) * c, pith_mm.y + (rc + kOutsideMm) * s));
+        options.air_hu, img.at(pith_mm.x + (rc + kOutsideMm) * c, pith_mm.y + (rc + kOutsideMm) * s));
     const double level = 0.5 * (in_level + out_v);
     const double r0 = rc - kFineHalfMm;
     for (int q = 0; q < fine_n; ++q) {
