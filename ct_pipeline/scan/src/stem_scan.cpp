@@ -147,6 +147,11 @@ ScannerFrame scanner_frame_of(const VolumeGeometry& g) {
 
 namespace {
 
+// Each slice's own levels (for its contour) from this many pixels: enough for the air and wood
+// modes (the scan's, from kLevelSamples each, are the reference), a small share of the slice's
+// time.
+constexpr int kSliceLevelSamples = 8000;
+
 // The options' HU thresholds from levels (scan_levels.h): wood between the air/log threshold and
 // the dense one; the under-bark edge midway between the densest wood mode and the slice's bark
 // (detect_contour measures it); the brightest sample allowed under a surface as far above the
@@ -222,7 +227,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
           ContourOptions co = options.contour;
           HeartwoodOptions ho = options.heartwood;
           if (scan.levels.valid) {
-            rec.levels = estimate_levels(job.slice);
+            rec.levels = estimate_levels(job.slice, kSliceLevelSamples);
             apply_levels(slice_levels_or_scan(rec.levels, scan.levels), options.heartwood_sigmas,
                          nullptr, &co, &ho);
           }

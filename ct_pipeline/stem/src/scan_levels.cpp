@@ -11,9 +11,6 @@
 namespace sawyer::ct {
 namespace {
 
-// About this many pixels of a slice go into its histogram: modes of a few percent of the pixels
-// are then thousands of samples, and the pass costs well under a millisecond.
-constexpr double kSamples = 40000.0;
 // Histogram bins: at least this wide (HU), and at most this many over the data's range.
 constexpr double kMinBinHu = 2.0;
 constexpr int kMaxBins = 2048;
@@ -24,6 +21,10 @@ constexpr double kSmoothHu = 12.0;
 constexpr double kMinProminence = 0.3;
 // ...and holds this share of the pixels (air: of the slice; wood: of the log's pixels).
 constexpr double kMinAirShare = 0.05, kMinModeShare = 0.03, kMinWoodModeShare = 0.10;
+// The air/log threshold this share of the way from air to the lightest wood mode: for a green log
+// at the nominal calibration the -700 HU the stem pass always used (air -1000, heartwood -500),
+// above the outer bark's edge blurred with air, so logs touching bark to bark stay apart.
+constexpr double kLogShare = 0.6;
 // Two wood modes count as two (a dry core in wet sapwood) when this many noise sigmas apart.
 constexpr double kTwoModeSigmas = 8.0;
 // Denser than the densest wood mode by this share of its height over air (green sapwood ~950
@@ -52,7 +53,7 @@ double mad_sigma(std::vector<float>& d) {
 
 }  // namespace
 
-ScanLevels estimate_levels(const Slice& slice) {
+ScanLevels estimate_levels(const Slice& slice, int samples) {
   ScanLevels out;
   const int W = slice.width, H = slice.height;
   if (W < 3 || H < 3 || slice.hu.size() != static_cast<size_t>(W) * H) {
@@ -60,7 +61,7 @@ ScanLevels estimate_levels(const Slice& slice) {
     return out;
   }
   const int stride =
-      std::max(1, static_cast<int>(std::sqrt(static_cast<double>(W) * H / kSamples)));
+      std::max(1, static_cast<int>(std::sqrt(static_cast<double>(W) * H / std::max(1000, samples))));
   std::vector<float> v;
   v.reserve(static_cast<size_t>((W / stride + 1) * (H / stride + 1)));
   for (int y = 0; y < H; y += stride)
@@ -184,7 +185,7 @@ ScanLevels estimate_levels(const Slice& slice) {
   }
   out.two_wood_modes = out.wood_high_hu - out.wood_low_hu >= kTwoModeSigmas * sigma;
   if (!out.two_wood_modes) out.wood_low_hu = out.wood_high_hu = out.wood_hu;
-  out.log_hu = 0.5 * (out.air_hu + out.wood_low_hu);
+  out.log_hu = out.air_hu + kLogShare * (out.wood_low_hu - out.air_hu);
   out.dense_hu = out.wood_high_hu + std::max(kDenseShare * (out.wood_high_hu - out.air_hu),
                                              kDenseSigmas * sigma);
   // A clipped air says nothing of the calibration.
