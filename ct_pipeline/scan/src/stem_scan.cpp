@@ -145,13 +145,65 @@ ScannerFrame scanner_frame_of(const VolumeGeometry& g) {
   return f;
 }
 
-Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
+namespace {
+
+// Each slice's own levels (for its contour) from this many pixels: enough for the air and wood
+// modes (the scan's, from kLevelSamples each, are the reference), a small share of the slice's
+// time.
+constexpr int kSliceLevelSamples = 8000;
+
+// The options' HU thresholds from levels (scan_levels.h): wood between the air/log threshold and
+// the dense one; the under-bark edge midway between the densest wood mode and the slice's bark
+// (detect_contour measures it); the brightest sample allowed under a surface as far above the
+// dense threshold again and a quarter (the belt's +200 HU at the nominal calibration is above
+// the dense threshold, the rails' +2200 far above the peak); a dry core as many noise sigmas.
+void apply_levels(const ScanLevels& l, double heartwood_sigmas, PithOptions* p, ContourOptions* c,
+                  HeartwoodOptions* h) {
+  if (!l.valid) return;
+  const double sigma = std::max(1.0, l.noise_hu());
+  if (p) {
+    p->wood_hu = l.log_hu;
+    p->max_wood_hu = l.dense_hu;
+  }
+  if (c) {
+    c->wood_hu = l.log_hu;
+    c->air_hu = l.air_hu;
+    c->outer_wood_hu = l.wood_high_hu;
+    c->noise_hu = sigma;
+    c->wood_max_hu = l.dense_hu;
+    c->wood_peak_hu = l.wood_high_hu + 2.25 * (l.dense_hu - l.wood_high_hu);
+  }
+  if (h) h->min_contrast_hu = heartwood_sigmas * sigma;
+}
+
+}  // namespace
+
+Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_in,
                            const std::function<void(int, int)>& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   const VolumeGeometry& g = source.geometry();
   const int n = g.slice_count();
   StemScan scan;
   scan.slices.resize(n);
+  // The scan's levels from a few slices spread along it (not the ends: log ends, the bed only).
+  StemScanOptions options = options_in;
+  if (options.levels_from_scan && n > 0) {
+    const int m = std::clamp(options.level_slices, 1, n);
+    std::vector<ScanLevels> sampled;
+    Slice probe;
+    for (int k = 0; k < m; ++k) {
+      const int i = static_cast<int>((k + 0.5) * n / m);
+      const Status st = source.read(i, probe);
+      if (!st) return st.error();
+      sampled.push_back(estimate_levels(probe));
+    }
+    scan.levels = pool_levels(sampled);
+    apply_levels(scan.levels, options.heartwood_sigmas, &options.pith, &options.contour,
+                 &options.heartwood);
+  }
+  scan.pith_options = options.pith;
+  scan.contour_options = options.contour;
+  scan.heartwood_options = options.heartwood;
   int threads = options.threads > 0 ? options.threads
                                     : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, 16);
@@ -171,8 +223,16 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
       while (queue.pop(job)) {
         StemSliceRecord& rec = scan.slices[job.index];
         if (rec.measured) {
-          rec.contour = detect_contour(job.slice, g, job.pith, options.contour);
-          rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, options.heartwood);
+          // This slice's own levels where they agree with the scan's.
+          ContourOptions co = options.contour;
+          HeartwoodOptions ho = options.heartwood;
+          if (scan.levels.valid) {
+            rec.levels = estimate_levels(job.slice, kSliceLevelSamples);
+            apply_levels(slice_levels_or_scan(rec.levels, scan.levels), options.heartwood_sigmas,
+                         nullptr, &co, &ho);
+          }
+          rec.contour = detect_contour(job.slice, g, job.pith, co);
+          rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, ho);
           if (options.volume) {
             double rmax = 0;
             for (size_t k = 0; k < rec.contour.radius.size(); ++k)

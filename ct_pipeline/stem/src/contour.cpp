@@ -12,6 +12,11 @@
 //      the bark (or air) 1 mm outside;
 //   3. bark: from the surface to the first crossing into air, where there is one before anything
 //      bright (the belt touching the bark hides it).
+// The levels (the wood/bark level, the wood range, air) are options: fixed HU for a green log at
+// the nominal calibration by default, from the scan's own levels in the stem pass
+// (scan_levels.h), with the bark measured on the slice (bark_level).
+// Rays whose surface is grossly off a robust Fourier fit of the outline (a second log touching,
+// the belt) take their next candidate near the fit, or are dropped.
 // Then a robust angular cleanup: angles off a running median by more than 1.5 mm are dropped
 // (knots reaching the surface at a grazing angle, the belt), gaps are filled by interpolation
 // and the result is smoothed with a 5-tap binomial.
@@ -33,16 +38,19 @@
 namespace sawyer::ct {
 namespace {
 
-constexpr float kAirHu = -1000.0f;
 // Ray stops after this much air beyond the log.
 constexpr double kAirStopMm = 10.0;
 // A ray's walk starts this far inside the previous ray's edge (from the pith when that fails).
 constexpr double kHintMm = 12.0;
 // Inside a surface candidate: the window checked for wood, mm under the edge.
 constexpr double kInsideNearMm = 0.8, kInsideFarMm = 4.0;
-// Wood range for the inside median, and the brightest sample allowed there (knots are ~0 HU,
-// the belt +200, the rails +2200).
-constexpr double kWoodMinHu = -380.0, kWoodMaxHu = 120.0, kWoodPeakHu = 400.0;
+// The wood range for the inside median and the brightest sample allowed there are options
+// (ContourOptions::wood_min_hu ...), from the scan's levels in the stem pass.
+// Bark level: measured on every kBarkStride-th ray, from kBarkNearMm to kBarkFarMm inside the
+// log's edge with air (the outer bark; the inner bark is denser, so the level midway between
+// wood and it is crossed at or just outside the inner bark's edge).
+constexpr int kBarkStride = 8;
+constexpr double kBarkNearMm = 0.5, kBarkFarMm = 2.0;
 // Sub-pixel refinement: outside level taken this far beyond the edge; search half-width; step.
 constexpr double kOutsideMm = 1.0, kFineHalfMm = 1.2, kFineStepMm = 0.1;
 // Bark: search this far beyond the surface for air.
@@ -53,6 +61,13 @@ constexpr int kMedianHalf = 7;
 constexpr double kOutlierMm = 1.5;
 constexpr double kMaxGapFraction = 0.125;
 constexpr double kMinFoundFraction = 0.2;
+// Gross outliers: surface candidates kept per ray; Fourier order of the robust outline fit; a
+// ray off it by more than kGrossMm or kGrossShare of the median radius (whichever is larger) takes
+// its candidate nearest the fit within that, or is dropped when off by kGrossDropFactor times it
+// (a lobed outline's misfit stays well inside that; a second log's far side does not).
+constexpr int kMaxCandidates = 4;
+constexpr int kGrossOrder = 4;
+constexpr double kGrossMm = 8.0, kGrossShare = 0.08, kGrossDropFactor = 3.0;
 // Heartwood.
 constexpr double kHeartStartMm = 3.0;    // start the inward walk this far under the surface
 constexpr double kHeartPersistMm = 5.0;  // the dry core must stay dry this long inwards
@@ -64,8 +79,9 @@ constexpr double kHeartStepPx = 2.0;     // step along the rays, pixels
 
 class Sampler {
  public:
-  Sampler(const Slice& s, const VolumeGeometry& g)
-      : d_(s.hu.data()),
+  Sampler(const Slice& s, const VolumeGeometry& g, float air_hu = -1000.0f)
+      : air_(air_hu),
+        d_(s.hu.data()),
         w_(s.width),
         h_(s.height),
         isx_(1.0 / g.spacing_x),
@@ -74,7 +90,7 @@ class Sampler {
   // Bilinear HU at scanner (x, y) mm; air outside the image.
   float at(double x, double y) const {
     const double c = x * isx_, r = y * isy_;
-    if (!(c >= 0.0 && r >= 0.0 && c <= w_ - 1 && r <= h_ - 1)) return kAirHu;
+    if (!(c >= 0.0 && r >= 0.0 && c <= w_ - 1 && r <= h_ - 1)) return air_;
     int c0 = static_cast<int>(c), r0 = static_cast<int>(r);
     c0 = std::min(c0, w_ - 2);
     r0 = std::min(r0, h_ - 2);
@@ -86,6 +102,7 @@ class Sampler {
   }
 
  private:
+  float air_;
   const float* d_;
   int w_, h_;
   double isx_, isy_;
@@ -262,6 +279,62 @@ bool robust_fourier(const std::vector<double>& r, const std::vector<bool>& valid
   return true;
 }
 
+// The slice's bark level: on every kBarkStride-th ray from the pith, the median of the profile
+// kBarkNearMm to kBarkFarMm (at least a pixel and a pixel and a half) inside the outermost fall
+// through the air/log threshold (the log's edge with air); the median over the rays. NaN when no
+// ray reached air. Each ray's walk starts kHintMm inside the previous one's edge when that is
+// in the log (the pith otherwise), as the contour's rays do.
+double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
+                  const ContourOptions& o) {
+  const int air_stop = static_cast<int>(std::ceil(kAirStopMm / h));
+  const int hint_back = static_cast<int>(std::ceil(2 * kHintMm / h));
+  const double near = std::max(kBarkNearMm, h), far = near + std::max(kBarkFarMm - kBarkNearMm, 1.5 * h);
+  std::vector<float> prof, win, per_ray;
+  int hint = 0;
+  for (int k = 0; k < o.n_angles; k += kBarkStride) {
+    const double w = kTwoPi * k / o.n_angles;
+    const double c = std::cos(w), s = std::sin(w);
+    int j0 = std::max(0, hint - hint_back), e = -1;
+    for (;;) {
+      prof.clear();
+      int air_run = 0;
+      bool seen = false;
+      for (int j = j0; j * h <= reach; ++j) {
+        const float v = img.at(pith.x + j * h * c, pith.y + j * h * s);
+        prof.push_back(v);
+        if (v < o.wood_hu) {
+          if (seen && ++air_run >= air_stop) break;
+        } else {
+          seen = true;
+          air_run = 0;
+        }
+      }
+      e = -1;
+      for (int j = static_cast<int>(prof.size()) - 2; j >= 0; --j)
+        if (prof[j] >= o.wood_hu && prof[j + 1] < o.wood_hu) {
+          e = j;
+          break;
+        }
+      if (j0 > 0 && (e < 0 || prof[0] < o.wood_hu)) {  // the hint was not in the log
+        j0 = 0;
+        continue;
+      }
+      break;
+    }
+    if (e < 0) continue;
+    e += j0;
+    hint = e;
+    const double re = e * h + h * (prof[e - j0] - o.wood_hu) /
+                                  std::max(1e-6f, prof[e - j0] - prof[e - j0 + 1]);
+    if (re - far < 0.5 * re) continue;  // a small object: not the log's edge
+    win.clear();
+    for (double r = re - far; r <= re - near + 1e-9; r += 0.25)
+      win.push_back(img.at(pith.x + r * c, pith.y + r * s));
+    per_ray.push_back(static_cast<float>(median_inplace(win)));
+  }
+  return per_ray.size() >= 3 ? median_inplace(per_ray) : NAN;
+}
+
 }  // namespace
 
 ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
@@ -274,20 +347,61 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
   out.bark_mm.assign(n, 0.0);
   if (!slice_ok(slice, geometry)) return out;
 
-  const Sampler img(slice, geometry);
+  const Sampler img(slice, geometry, static_cast<float>(options.air_hu));
   const double h = std::min(geometry.spacing_x, geometry.spacing_y);  // coarse step, mm
   const double reach = max_reach(slice, geometry, pith_mm);
   const int air_stop = static_cast<int>(std::ceil(kAirStopMm / h));
   const int in_near = std::max(1, static_cast<int>(std::floor(kInsideNearMm / h)));
   const int in_far = std::max(in_near + 2, static_cast<int>(std::ceil(kInsideFarMm / h)));
   const int fine_n = static_cast<int>(std::lround(2 * kFineHalfMm / kFineStepMm)) + 1;
-  const double air_level = 0.5 * (options.wood_hu + kAirHu);  // bark → air crossing
-  // Wood → bark level: midway between wet sapwood and inner bark, which also lies between
-  // wood and air, so bark gaps are found the same way.
-  const double edge_level = options.under_bark_hu;
+  const double air_level = 0.5 * (options.wood_hu + options.air_hu);  // bark → air crossing
+  // Wood → bark level: midway between the outer wood (wet sapwood) and the bark, which also
+  // lies between wood and air, so bark gaps are found the same way. From the scan's levels and
+  // this slice's bark when given, else the options' fixed level. The inside of a surface must be
+  // at least as dense as the level (bark is not; wood is).
+  double edge_level = options.under_bark_hu, wood_min = options.wood_min_hu;
+  if (std::isfinite(options.outer_wood_hu)) {
+    out.bark_hu = bark_level(img, pith_mm, reach, h, options);
+    const bool bark_seen = std::isfinite(out.bark_hu) &&
+                           options.outer_wood_hu - out.bark_hu >= options.bark_sigmas * options.noise_hu;
+    edge_level = 0.5 * (options.outer_wood_hu + (bark_seen ? out.bark_hu : options.air_hu));
+    wood_min = edge_level;
+  }
+  out.under_bark_hu = edge_level;
 
   std::vector<float> prof, inside, fine(fine_n);
   std::vector<double> edge_r(n, 0.0);
+  // Every ray's surface candidates (coarse index from the pith, inside median), outermost
+  // first: the outermost is taken; another where the outermost is a gross outlier (below).
+  struct Candidate {
+    int j;
+    float med;
+  };
+  std::vector<Candidate> cands(static_cast<size_t>(n) * kMaxCandidates);
+  std::vector<int> n_cands(n, 0);
+  // Sub-pixel: the crossing of the level midway between inside and outside nearest to the
+  // coarse crossing rc, at kFineStepMm steps.
+  auto subpixel = [&](double c, double s, double rc, double in_level) {
+    const double out_v = std::max<double>(
+        options.air_hu, img.at(pith_mm.x + (rc + kOutsideMm) * c, pith_mm.y + (rc + kOutsideMm) * s));
+    const double level = 0.5 * (in_level + out_v);
+    const double r0 = rc - kFineHalfMm;
+    for (int q = 0; q < fine_n; ++q) {
+      const double r = r0 + q * kFineStepMm;
+      fine[q] = img.at(pith_mm.x + r * c, pith_mm.y + r * s);
+    }
+    double best = rc, best_d = 1e9;
+    for (int q = 0; q + 1 < fine_n; ++q) {
+      if (!(fine[q] >= level && fine[q + 1] < level)) continue;
+      const double r =
+          r0 + kFineStepMm * (q + (fine[q] - level) / std::max(1e-6f, fine[q] - fine[q + 1]));
+      if (std::abs(r - rc) < best_d) {
+        best_d = std::abs(r - rc);
+        best = r;
+      }
+    }
+    return best;
+  };
   int found = 0;
   int hint = 0;  // the previous ray's edge (coarse index): the walk starts kHintMm inside it
   const int hint_back = static_cast<int>(std::ceil(kHintMm / h));
@@ -313,9 +427,10 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
           air_run = 0;
         }
       }
-      // Outermost falling edge with wood inside.
+      // Outermost falling edge with wood inside (and the next few inwards).
       np = static_cast<int>(prof.size());
-      for (int j = np - 2; j >= 1; --j) {
+      n_cands[k] = 0;
+      for (int j = np - 2; j >= 1 && n_cands[k] < kMaxCandidates; --j) {
         if (!(prof[j] >= edge_level && prof[j + 1] < edge_level)) continue;
         inside.clear();
         float peak = -1e9f;
@@ -325,15 +440,20 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
         }
         if (inside.empty()) continue;
         const double med = median_inplace(inside);
-        if (med < kWoodMinHu || med > kWoodMaxHu || peak > kWoodPeakHu) continue;
-        edge = j;
-        in_level = med;
-        break;
+        if (med < wood_min || med > options.wood_max_hu || peak > options.wood_peak_hu) continue;
+        if (edge < 0) {
+          edge = j;
+          in_level = med;
+        }
+        cands[static_cast<size_t>(k) * kMaxCandidates + n_cands[k]++] = {j + j0,
+                                                                         static_cast<float>(med)};
+        j -= in_near;  // the next candidate lies inside this one's window
       }
       // Started from a hint: trust it only with wood well inside the start; else from the pith.
       if (j0 > 0 && (edge < 0 || edge < in_far + 2 || prof[0] < edge_level)) {
         j0 = 0;
         edge = -1;
+        n_cands[k] = 0;
         continue;
       }
       break;
@@ -347,24 +467,7 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
     // Sub-pixel: crossing of the level midway between inside and outside.
     const double rc =
         edge * h + h * (prof[edge] - edge_level) / std::max(1e-6f, prof[edge] - prof[edge + 1]);
-    const double out_v = std::max<double>(
-        kAirHu, img.at(pith_mm.x + (rc + kOutsideMm) * c, pith_mm.y + (rc + kOutsideMm) * s));
-    const double level = 0.5 * (in_level + out_v);
-    const double r0 = rc - kFineHalfMm;
-    for (int q = 0; q < fine_n; ++q) {
-      const double r = r0 + q * kFineStepMm;
-      fine[q] = img.at(pith_mm.x + r * c, pith_mm.y + r * s);
-    }
-    double best = rc, best_d = 1e9;
-    for (int q = 0; q + 1 < fine_n; ++q) {
-      if (!(fine[q] >= level && fine[q + 1] < level)) continue;
-      const double r =
-          r0 + kFineStepMm * (q + (fine[q] - level) / std::max(1e-6f, fine[q] - fine[q + 1]));
-      if (std::abs(r - rc) < best_d) {
-        best_d = std::abs(r - rc);
-        best = r;
-      }
-    }
+    const double best = subpixel(c, s, rc, in_level);
     edge_r[k] = best;
     out.valid[k] = true;
     ++found;
@@ -385,6 +488,38 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
     std::fill(out.valid.begin(), out.valid.end(), false);
     std::fill(out.bark_mm.begin(), out.bark_mm.end(), 0.0);
     return out;
+  }
+  // Gross outliers (a second log touching this one, the belt, clutter: the outermost surface
+  // with wood inside is theirs) off a robust Fourier fit of the outline: the ray's candidate
+  // nearest the fit instead when it is near it, dropped when far off and none is.
+  std::vector<double> fit;
+  if (robust_fourier(edge_r, out.valid, kGrossOrder, &fit)) {
+    std::vector<float> rv;
+    for (int k = 0; k < n; ++k)
+      if (out.valid[k]) rv.push_back(static_cast<float>(edge_r[k]));
+    const double tol = std::max(kGrossMm, kGrossShare * median_inplace(rv));
+    for (int k = 0; k < n; ++k) {
+      if (!out.valid[k] || std::abs(edge_r[k] - fit[k]) <= tol) continue;
+      const Candidate* pick = nullptr;
+      for (int i = 1; i < n_cands[k]; ++i) {
+        const Candidate& q = cands[static_cast<size_t>(k) * kMaxCandidates + i];
+        if (std::abs(q.j * h - fit[k]) <= tol &&
+            (!pick || std::abs(q.j * h - fit[k]) < std::abs(pick->j * h - fit[k])))
+          pick = &q;
+      }
+      if (pick) {
+        const double w = kTwoPi * k / n;
+        const double c = std::cos(w), s = std::sin(w);
+        const double a = img.at(pith_mm.x + pick->j * h * c, pith_mm.y + pick->j * h * s);
+        const double b =
+            img.at(pith_mm.x + (pick->j + 1) * h * c, pith_mm.y + (pick->j + 1) * h * s);
+        const double rc = pick->j * h + h * (a - edge_level) / std::max(1e-6, a - b);
+        edge_r[k] = subpixel(c, s, rc, pick->med);
+        out.bark_mm[k] = 0.0;
+      } else if (std::abs(edge_r[k] - fit[k]) > kGrossDropFactor * tol) {
+        out.valid[k] = false;
+      }
+    }
   }
   const std::vector<bool> measured = out.valid;
   const int half = std::max(2, static_cast<int>(std::lround(kMedianHalf * n / 360.0)));

@@ -1,6 +1,6 @@
 // Pith of one CT slice (issue 4): gradient-orientation voting, refined at full resolution.
 //
-// 1. Extent (no prior): 4 x 4 block means, wood = wood_hu < HU < kMaxWoodHu (the bed's belt and
+// 1. Extent (no prior): 4 x 4 block means, wood = wood_hu < HU < max_wood_hu (the bed's belt and
 //    rails, clutter steel are denser than any wood), eroded once, largest 4-connected component.
 //    No component of a plausible size: found = false.
 // 2. Vote: the local ring orientation comes from the smoothed structure tensor of the
@@ -253,13 +253,13 @@ struct Extent {
   int bx0 = 0, by0 = 0, bx1 = 0, by1 = 0;  // bounding box, coarse cells, inclusive
 };
 
-Extent find_extent(const Slice& s, const VolumeGeometry& g, double wood_hu) {
+Extent find_extent(const Slice& s, const VolumeGeometry& g, double wood_hu, double max_wood_hu) {
   Extent e;
   const int cw = s.width / kCoarse, ch = s.height / kCoarse;
   if (cw < 3 || ch < 3) return e;
   const Grid m = block_mean(s, kCoarse, 0, 0, cw, ch);
   std::vector<std::uint8_t> wood(static_cast<size_t>(cw) * ch, 0), er(wood.size(), 0);
-  for (size_t k = 0; k < wood.size(); ++k) wood[k] = m.v[k] > wood_hu && m.v[k] < kMaxWoodHu;
+  for (size_t k = 0; k < wood.size(); ++k) wood[k] = m.v[k] > wood_hu && m.v[k] < max_wood_hu;
   auto erode = [&](const std::vector<std::uint8_t>& in, std::vector<std::uint8_t>& out) {
     std::fill(out.begin(), out.end(), 0);
     for (int y = 1; y + 1 < ch; ++y)
@@ -488,7 +488,7 @@ Vec2 refine(const Slice& s, const VolumeGeometry& g, Vec2 c, double* inlier) {
 
 // Fraction of half-resolution wood pixels in a disc (mm) of the slice.
 double wood_fraction(const Slice& s, const VolumeGeometry& g, Vec2 c, double radius,
-                     double wood_hu) {
+                     double wood_hu, double max_wood_hu) {
   const int cx = static_cast<int>(std::lround(c.x / g.spacing_x));
   const int cy = static_cast<int>(std::lround(c.y / g.spacing_y));
   const int rx = static_cast<int>(radius / g.spacing_x),
@@ -501,7 +501,7 @@ double wood_fraction(const Slice& s, const VolumeGeometry& g, Vec2 c, double rad
       ++n;
       if (x < 0 || y < 0 || x >= s.width || y >= s.height) continue;
       const float v = s.at(x, y);
-      in += v > wood_hu && v < kMaxWoodHu;
+      in += v > wood_hu && v < max_wood_hu;
     }
   return n ? static_cast<double>(in) / n : 0.0;
 }
@@ -516,7 +516,7 @@ PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const Pith
                              Vec2 prior) {
   PithResult r;
   const double sr = opt.prior_radius_mm;
-  if (wood_fraction(s, g, prior, sr, opt.wood_hu) < 0.6) return r;
+  if (wood_fraction(s, g, prior, sr, opt.wood_hu, opt.max_wood_hu) < 0.6) return r;
   // Voters: every other pixel within sr + 20 mm of the prior; accumulator: +- sr, 2-pixel cells.
   const double vr = sr + 20.0;
   const int x0 = std::max(0, static_cast<int>((prior.x - vr) / g.spacing_x));
@@ -542,7 +542,7 @@ PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const Pith
 std::vector<PithCandidate> candidates_without_prior(const Slice& s, const VolumeGeometry& g,
                                                    const PithOptions& opt) {
   std::vector<PithCandidate> out;
-  const Extent e = find_extent(s, g, opt.wood_hu);
+  const Extent e = find_extent(s, g, opt.wood_hu, opt.max_wood_hu);
   if (!e.found) return out;
   // The pith lies well inside the section: search +- 0.6 R around the centroid, with votes from
   // the inner 0.8 R (inner rings are rounder), every third pixel, into 4-pixel cells.

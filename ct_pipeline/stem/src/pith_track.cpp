@@ -40,12 +40,12 @@ constexpr int kMaxAcquisitions = 12;
 constexpr double kMaxAreaChange = 0.25;
 
 
-std::int64_t count_wood(const Slice& s, double wood_hu) {
+std::int64_t count_wood(const Slice& s, double wood_hu, double max_wood_hu) {
   std::int64_t n = 0;
   for (int y = 0; y < s.height; y += 4)
     for (int x = 0; x < s.width; x += 4) {
       const float v = s.at(x, y);
-      n += v > wood_hu && v < kMaxWoodHu;
+      n += v > wood_hu && v < max_wood_hu;
     }
   return n;
 }
@@ -76,11 +76,13 @@ SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_
 // Knots, cracks and the heartwood border are not annual rings: before averaging, a slice's pixels
 // farther than kOutlierHu from its wood level near the pith are left out (knots in dry heartwood
 // are 300-500 HU above it, cracks and the sapwood step as far), so a whorl blurred along z does
-// not leak into the rings. Level: median of the wood pixels within kLevelRadiusMm of the pith.
+// not leak into the rings. Level: median of the wood pixels (between the options' air/log
+// threshold and the bed's, from the scan's levels) within kLevelRadiusMm of the pith.
 constexpr float kOutlierHu = 150.f;
 constexpr double kLevelRadiusMm = 15.0;
 
-float wood_level(const float* img, int w, int h, double cx, double cy, double rx, double ry) {
+float wood_level(const float* img, int w, int h, double cx, double cy, double rx, double ry,
+                 const PithOptions& o) {
   std::vector<float> v;
   const int x0 = std::max(0, static_cast<int>(cx - rx)), x1 = std::min(w - 1, static_cast<int>(cx + rx) + 1);
   const int y0 = std::max(0, static_cast<int>(cy - ry)), y1 = std::min(h - 1, static_cast<int>(cy + ry) + 1);
@@ -89,7 +91,7 @@ float wood_level(const float* img, int w, int h, double cx, double cy, double rx
       const double dx = (x - cx) / rx, dy = (y - cy) / ry;
       if (dx * dx + dy * dy > 1) continue;
       const float q = img[static_cast<size_t>(y) * w + x];
-      if (q > -700.f && q < static_cast<float>(kMaxWoodHu)) v.push_back(q);
+      if (q > o.wood_hu && q < o.max_wood_hu) v.push_back(q);
     }
   return v.empty() ? NAN : static_cast<float>(median_inplace(v));
 }
@@ -119,7 +121,7 @@ PithTracker::PithTracker(const VolumeGeometry& geometry, const PithOptions& opti
 }
 
 std::vector<TrackedSlice> PithTracker::push(Slice slice) {
-  const std::int64_t wood = count_wood(slice, options_.wood_hu);
+  const std::int64_t wood = count_wood(slice, options_.wood_hu, options_.max_wood_hu);
   Held h;
   h.index = pushed_++;
   h.slice = std::move(slice);
@@ -198,7 +200,7 @@ Slice PithTracker::averaged(int centre, const Vec2* box_centre, Vec2* origin) co
   members.push_back(&c.slice);
   std::vector<float> level;
   for (const Slice* m : members)
-    level.push_back(wood_level(m->hu.data(), m->width, m->height, pcx, pcy, lrx, lry));
+    level.push_back(wood_level(m->hu.data(), m->width, m->height, pcx, pcy, lrx, lry, options_));
   const float centre_level = level.back();
   if (std::isnan(centre_level)) {
     for (int y = 0; y < out.height; ++y)
@@ -408,7 +410,7 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
       if (!needed[j] || m.hu.empty()) continue;
       levels[static_cast<size_t>(j)] =
           wood_level(m.hu.data(), m.width, m.height, track[j].x / geometry.spacing_x - m.x0,
-                     track[j].y / geometry.spacing_y - m.y0, lrx, lry);
+                     track[j].y / geometry.spacing_y - m.y0, lrx, lry, options);
     }
   };
   auto work = [&] {

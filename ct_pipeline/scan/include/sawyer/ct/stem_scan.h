@@ -8,7 +8,13 @@
 //   Result<StemScan> s = scan_stem(*src.value(), {}, [](int done, int all) { ... });
 //   LogModel log; log.stem = s.value().stem;
 //
-// The scan streams: slices are read once, in order; memory holds the averaging window's slices
+// Levels: before the pass, a few slices spread along the scan (level_slices) are read for the
+// scan's own levels (scan_levels.h: air, wood modes, noise), which set every HU threshold of
+// the pith, contour and heartwood options; each slice's contour then uses its own levels where
+// they agree with the scan's. So a dried log, a shifted calibration or a windowed export is read
+// like a green log at the nominal calibration.
+//
+// The scan streams: slices are read once, in order (and those few before); memory holds the averaging window's slices
 // (about 2 x 20 mm of them), a 90 mm square crop around the pith of every slice (32 KB at
 // 0.8 mm) and the per-slice results.
 #pragma once
@@ -19,6 +25,7 @@
 #include "sawyer/core/result.h"
 #include "sawyer/ct/log_volume.h"
 #include "sawyer/ct/pith_track.h"
+#include "sawyer/ct/scan_levels.h"
 #include "sawyer/ct/slice_source.h"
 #include "sawyer/ct/stem_detect.h"
 #include "sawyer/model/log_model.h"
@@ -29,6 +36,13 @@ struct StemScanOptions {
   PithOptions pith;
   ContourOptions contour;
   HeartwoodOptions heartwood;
+  // The HU thresholds of pith, contour and heartwood from the scan's levels, read from this many
+  // slices spread along the scan (false: the options' own thresholds, the nominal calibration
+  // of a green log). A dry core counts as present only when its contrast with the sapwood is
+  // heartwood_sigmas noise sigmas or more.
+  bool levels_from_scan = true;
+  int level_slices = 9;
+  double heartwood_sigmas = 6.0;
   int threads = 0;  // 0: hardware concurrency
   // The pith: tracked on slices averaged along z, smoothed (LOWESS), then refined on
   // drift-compensated averages searching refine.search_radius_mm around the track and smoothed,
@@ -64,10 +78,17 @@ struct StemSliceRecord {
   bool pith_outlier = false;  // the robust smoothing rejected the refined pith
   ContourResult contour;      // around `pith` (re-centred from pith_raw)
   HeartwoodResult heartwood;  // around `pith`
+  ScanLevels levels;          // this slice's own (valid = false where not measured)
 };
 
 struct StemScan {
   std::vector<StemSliceRecord> slices;
+  // The scan's levels (pooled over StemScanOptions::level_slices slices) and the thresholds the
+  // pass used (the options after the levels were applied).
+  ScanLevels levels;
+  PithOptions pith_options;
+  ContourOptions contour_options;
+  HeartwoodOptions heartwood_options;
   Stem stem;
   double seconds = 0;  // wall time of the whole pass, reading included
   // Of which: reading, first pith track, contour and heartwood (overlapped); pith refinement.

@@ -15,6 +15,7 @@
 // unless a Workspace is given.
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include "sawyer/core/vec.h"
@@ -22,15 +23,20 @@
 
 namespace sawyer::ct {
 
-// Denser than any wood: the bed's rubber belt (+200 HU), its rails and clutter steel. Sound knots
-// are about 0 HU and wet sapwood -50, so wood lies between PithOptions::wood_hu and this.
+// Denser than any wood at the nominal calibration of a green log: the bed's rubber belt (+200
+// HU), its rails and clutter steel. Sound knots are about 0 HU and wet sapwood -50, so wood lies
+// between PithOptions::wood_hu and this. The defaults of the options below; the stem pass sets
+// them from the scan's own levels (scan_levels.h).
 inline constexpr double kMaxWoodHu = 150.0;
 
 struct PithOptions {
   // Search radius around the prior (mm) when one is given.
   double prior_radius_mm = 15.0;
-  // HU threshold separating wood (and bark) from air, used to find the log's extent.
+  // HU threshold separating wood (and bark) from air, used to find the log's extent, and the
+  // least HU denser than any wood (the bed, clutter): wood pixels lie between the two.
+  // ScanLevels::log_hu and dense_hu in the stem pass.
   double wood_hu = -700.0;
+  double max_wood_hu = kMaxWoodHu;
   // With a prior and no wood near it: search the whole slice (true) or report not found.
   bool fall_back_to_whole_slice = true;
 };
@@ -86,11 +92,25 @@ inline double ring_profile_reach_mm(double search_mm, double ring_max_mm = kRing
 
 struct ContourOptions {
   int n_angles = 360;
+  // Air / log threshold (a ray stops after 10 mm below it) and the air level.
   double wood_hu = -700.0;
+  double air_hu = -1000.0;
   // Level between wood (wet sapwood, knots) and the inner bark: the under-bark edge is where a
   // ray from the pith falls through it for the last time with wood inside (about midway
   // between sapwood, -50 HU, and inner bark, -450 HU).
   double under_bark_hu = -250.0;
+  // Wood inside a surface candidate: the median of 1-4 mm under it within [wood_min_hu,
+  // wood_max_hu], no sample above wood_peak_hu (the bed's belt and rails, clutter).
+  double wood_min_hu = -380.0, wood_max_hu = 120.0, wood_peak_hu = 400.0;
+  // From the scan's levels (the stem pass sets these and the fields above from ScanLevels):
+  // when outer_wood_hu is set (not NaN), each slice measures its bark level on a few rays (the
+  // median just inside the log's edge with air) and takes under_bark_hu midway between
+  // outer_wood_hu (the densest wood mode) and that bark, or midway to air where bark and wood
+  // are not told apart by bark_sigmas x noise_hu (bark missing or as dense as the wood); and
+  // wood_min_hu as that level.
+  double outer_wood_hu = NAN;
+  double noise_hu = 20.0;
+  double bark_sigmas = 3.0;
 };
 
 struct ContourResult {
@@ -100,6 +120,10 @@ struct ContourResult {
   std::vector<bool> valid;
   // Bark thickness where measurable (mm), else 0.
   std::vector<double> bark_mm;
+  // The levels this slice's contour used: bark measured just inside the edge with air (NaN
+  // when not measured) and the under-bark level.
+  double bark_hu = NAN;
+  double under_bark_hu = NAN;
 };
 
 // Fills the entries of a circular row (radius per azimuth) that `valid` does not mark by linear
@@ -113,7 +137,7 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
 struct HeartwoodOptions {
   int n_angles = 360;
   // Least sapwood-minus-heartwood contrast (HU, slice medians) for a dry core to count as
-  // present.
+  // present. The stem pass sets it from the scan's noise (many noise sigmas: ScanLevels).
   double min_contrast_hu = 150.0;
 };
 
