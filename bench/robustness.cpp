@@ -2,7 +2,7 @@
 // (issue 19, item 3; docs/phantom.md "Condition space", docs/scan.md "Robustness sweep").
 //
 //   robustness [--quick] [--conditions N] [--slices S] [--seed S] [--preset P] [--logs L]
-//              [--only I] [--threads T] [--list 0|1] [--baseline 0|1]
+//              [--only I] [--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1]
 //
 // Draws N conditions (seeded; condition i from its own stream, so `--only i` reproduces it),
 // each a log (the bundled gran1_spruce, pine_8, spruce_77 or a fresh sawyer::generate_log one),
@@ -12,6 +12,9 @@
 // scan_knots) and measured against the phantom's truth. It prints every scan's figures, the
 // pass rate of each stage against issue 20's targets, each failing condition with its
 // parameters, and the pass rate of each stage per bin of each drawn factor.
+// --true-stem 1 runs the knot pass on the phantom's true stem (pith, outline, heartwood) instead
+// of the scanned one, so that the knot figures measure the knot pass alone (the stem figures
+// are still the stem pass's).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -223,6 +226,7 @@ struct Figures {
   std::vector<double> r_dead_errors;
   std::optional<bool> flagged;  // the scan's own "unsure" verdict: none exists yet
   double seconds_render = 0, seconds_scan = 0;
+  std::string knot_signal;  // the knot pass's noise, thresholds and ring rejections (stderr)
 };
 
 // Hook for the QA verdict of the next issue: whether the scan flagged itself as unsure. No
@@ -251,7 +255,7 @@ double section_reach_mm(const LogModel& log, double from, double to, const Place
          0.5 * (to - from) * std::sin(tilt * kPi / 180);
 }
 
-Figures measure(const Condition& c, const LogModel& log, int n, int threads) {
+Figures measure(const Condition& c, const LogModel& log, int n, int threads, bool true_stem) {
   Figures f;
   PhantomOptions o = c.o;
   const double sp = o.slice_spacing_mm;
@@ -306,14 +310,26 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads) {
   }
   KnotScanOptions ko;
   ko.threads = threads;
-  auto knots = scan_knots(vol, stem.value().stem, ko);
+  const LogModel truth = ph->truth_log();
+  auto knots = scan_knots(vol, true_stem ? truth.stem : stem.value().stem, ko);
   if (!knots) {
     f.error = "knot pass: " + knots.error().message();
     return f;
   }
   f.seconds_scan = stem.value().seconds + knots.value().seconds;
+  {
+    const KnotDetectSummary& d = knots.value().detect;
+    char b[240];
+    std::snprintf(b, sizeof b,
+                  "knot pass: noise %.0f, residual %.0f, rings %.0f HU; thresholds %.0f/%.0f, "
+                  "follow %.0f HU; rejected as rings %d (sheets %d, drift %d), stubby %d, "
+                  "steep %d",
+                  d.noise_hu, d.residual_hu, d.ring_hu, d.low_hu, d.high_hu, d.follow_hu,
+                  knots.value().rejected_as_rings, d.rejected_sheet_blobs, d.rejected_drift,
+                  d.rejected_stubby, d.rejected_steep);
+    f.knot_signal = b;
+  }
   f.flagged = scan_flagged(stem.value(), knots.value());
-  const LogModel truth = ph->truth_log();
   const StemScan& s = stem.value();
   f.slices = static_cast<int>(s.slices.size());
 
@@ -736,7 +752,7 @@ int usage() {
   std::fprintf(stderr,
                "usage: robustness [--quick] [--conditions N] [--slices S] [--seed S] "
                "[--preset pine|spruce|douglas|mixed] [--logs bundled|random|all] [--only I] "
-               "[--threads T] [--list 0|1] [--baseline 0|1]\n");
+               "[--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1]\n");
   return 2;
 }
 
@@ -744,7 +760,7 @@ int usage() {
 
 int main(int argc, char** argv) {
   int n_conditions = 200, slices = 40, threads = 2, only = -1;
-  bool list = true, baseline = false;
+  bool list = true, baseline = false, true_stem = false;
   std::uint64_t seed = 19;
   std::string preset = "mixed", logs_from = "all";
   for (int a = 1; a < argc; ++a) {
@@ -773,6 +789,8 @@ int main(int argc, char** argv) {
       list = std::atoi(val) != 0;
     else if (k == "--baseline")
       baseline = std::atoi(val) != 0;
+    else if (k == "--true-stem")
+      true_stem = std::atoi(val) != 0;
     else
       return usage();
   }
@@ -791,10 +809,11 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "# Robustness sweep: %d conditions, seed %llu, preset %s, logs %s, %d slices each, "
-      "%d threads%s\n",
+      "%d threads%s%s\n",
       n_conditions, static_cast<unsigned long long>(seed), preset.c_str(), logs_from.c_str(),
       slices, threads,
-      baseline ? "; baseline: each log and section under the default phantom" : "");
+      baseline ? "; baseline: each log and section under the default phantom" : "",
+      true_stem ? "; knot pass on the true stem" : "");
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Done> done;
   std::vector<LogModel> logs_of;
@@ -822,10 +841,11 @@ int main(int argc, char** argv) {
       for (size_t k = 0; k < 3; ++k)
         if (c.log == kBundled[k]) log = bundled[k];
     }
-    Figures f = measure(c, log, slices, threads);
+    Figures f = measure(c, log, slices, threads, true_stem);
     std::fprintf(stderr, "robustness: %d/%d %s %s: %s\n", i + 1, n_conditions,
                  preset_name(c.preset), log.id.c_str(),
-                 f.error.empty() ? figures(f).c_str() : f.error.c_str());
+                 f.error.empty() ? (figures(f) + "; " + f.knot_signal).c_str()
+                                 : f.error.c_str());
     done.push_back({c, log.id, std::move(f)});
     logs_of.push_back(std::move(log));
   }
