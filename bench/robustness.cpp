@@ -2,16 +2,20 @@
 // (issue 19, item 3; docs/phantom.md "Condition space", docs/scan.md "Robustness sweep").
 //
 //   robustness [--quick] [--conditions N] [--slices S] [--seed S] [--preset P] [--logs L]
-//              [--only I] [--threads T] [--list 0|1] [--baseline 0|1] [--qa-csv FILE]
+//              [--only I] [--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1]
+//              [--qa-csv FILE]
 //
 // Draws N conditions (seeded; condition i from its own stream, so `--only i` reproduces it),
 // each a log (the bundled gran1_spruce, pine_8, spruce_77 or a fresh sawyer::generate_log one),
 // a preset (pine, spruce, douglas: a Douglas-fir-like log with strong latewood) and every
 // condition of PhantomOptions from its realistic range. Each is rendered as a short section of S
-// slices in memory, scanned as bench/knot_bench does (scan_stem keeping the voxels, then
+// slices in memory, scanned as `sawyer scan` does (ct::scan_log: the stem pass keeping the voxels, then
 // scan_knots) and measured against the phantom's truth. It prints every scan's figures, the
 // pass rate of each stage against issue 20's targets, each failing condition with its
 // parameters, and the pass rate of each stage per bin of each drawn factor.
+// --true-stem 1 runs the knot pass on the phantom's true stem (pith, outline, heartwood) instead
+// of the scanned one, so that the knot figures measure the knot pass alone (the stem figures
+// are still the stem pass's).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -30,6 +34,7 @@
 #include "sawyer/ct/knot_scan.h"
 #include "sawyer/ct/log_volume.h"
 #include "sawyer/ct/phantom.h"
+#include "sawyer/ct/scan_log.h"
 #include "sawyer/ct/scan_qa.h"
 #include "sawyer/ct/slice_source.h"
 #include "sawyer/ct/stem_scan.h"
@@ -228,12 +233,12 @@ struct Figures {
   double qa_pith_suspect = NAN, qa_pith_run_mm = NAN, qa_ring_share = NAN,
          qa_outline_suspect = NAN, qa_knots_per_m = NAN;
   double seconds_render = 0, seconds_scan = 0;
+  std::string knot_signal;  // the knot pass's noise, thresholds and ring rejections (stderr)
 };
 
 // The scan's own QA verdict (what `sawyer scan` and `sawyer run` report): flagged when it
 // fails.
-void scan_qa(const StemScan& s, const KnotScan& k, const VolumeGeometry& g, Figures& f) {
-  const ScanQaDetail qa = assess_scan(s, &k, g);
+void scan_qa(const ScanQaDetail& qa, Figures& f) {
   for (const std::string& w : qa.verdict.warnings)
     f.qa_warnings += (f.qa_warnings.empty() ? "" : "; ") + w;
   f.flagged = !qa.verdict.trusted;
@@ -266,7 +271,7 @@ double section_reach_mm(const LogModel& log, double from, double to, const Place
          0.5 * (to - from) * std::sin(tilt * kPi / 180);
 }
 
-Figures measure(const Condition& c, const LogModel& log, int n, int threads) {
+Figures measure(const Condition& c, const LogModel& log, int n, int threads, bool true_stem) {
   Figures f;
   PhantomOptions o = c.o;
   const double sp = o.slice_spacing_mm;
@@ -310,26 +315,41 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads) {
     return f;
   }
   SliceSource& src = *uniform.value();
-  LogVolume vol = LogVolume::empty_like(src.geometry());
-  StemScanOptions so;
-  so.volume = &vol;
+  // The scan as `sawyer scan` makes it (ct::scan_log: stem, knots, QA verdict).
+  ScanOptions so;
   so.threads = threads;
-  auto stem = scan_stem(src, so);
-  if (!stem) {
-    f.error = "stem pass: " + stem.error().message();
+  auto scanned = scan_log(src, so);
+  if (!scanned) {
+    f.error = "scan: " + scanned.error().message();
     return f;
   }
-  KnotScanOptions ko;
-  ko.threads = threads;
-  auto knots = scan_knots(vol, stem.value().stem, ko);
-  if (!knots) {
-    f.error = "knot pass: " + knots.error().message();
-    return f;
-  }
-  f.seconds_scan = stem.value().seconds + knots.value().seconds;
-  scan_qa(stem.value(), knots.value(), src.geometry(), f);
+  ScanResult& sr = scanned.value();
   const LogModel truth = ph->truth_log();
-  const StemScan& s = stem.value();
+  if (true_stem) {  // the knot pass again, on the phantom's true stem (the knots' own errors)
+    KnotScanOptions ko;
+    ko.threads = threads;
+    auto k = scan_knots(*sr.volume, truth.stem, ko);
+    if (!k) {
+      f.error = "knot pass: " + k.error().message();
+      return f;
+    }
+    sr.knots = std::move(k.value());
+  }
+  f.seconds_scan = sr.stem.seconds + sr.knots.seconds;
+  {
+    const KnotDetectSummary& d = sr.knots.detect;
+    char b[240];
+    std::snprintf(b, sizeof b,
+                  "knot pass: noise %.0f, residual %.0f, rings %.0f HU; thresholds %.0f/%.0f, "
+                  "follow %.0f HU; rejected as rings %d (sheets %d, drift %d), stubby %d, "
+                  "steep %d",
+                  d.noise_hu, d.residual_hu, d.ring_hu, d.low_hu, d.high_hu, d.follow_hu,
+                  sr.knots.rejected_as_rings, d.rejected_sheet_blobs, d.rejected_drift,
+                  d.rejected_stubby, d.rejected_steep);
+    f.knot_signal = b;
+  }
+  scan_qa(sr.qa, f);
+  const StemScan& s = sr.stem;
   f.slices = static_cast<int>(s.slices.size());
 
   // Stem, as bench/stem_bench: pith error per slice; radii re-expressed around the true pith so
@@ -371,7 +391,7 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads) {
   KnotMatchOptions mo;
   mo.z_lo = zlo + 5.0, mo.z_hi = zhi - 5.0;
   mo.min_diameter_mm = f.fine ? 10.0 : 15.0;
-  const KnotMatch m = match_knots(knots.value().knots, truth.knots, truth.stem, mo);
+  const KnotMatch m = match_knots(sr.knots.knots, truth.knots, truth.stem, mo);
   f.truth_big = m.truth_counted, f.found_big = m.truth_found;
   f.found = m.found, f.spurious = m.spurious;
   f.recall = m.recall(), f.precision = m.precision();
@@ -797,7 +817,7 @@ int usage() {
   std::fprintf(stderr,
                "usage: robustness [--quick] [--conditions N] [--slices S] [--seed S] "
                "[--preset pine|spruce|douglas|mixed] [--logs bundled|random|all] [--only I] "
-               "[--threads T] [--list 0|1] [--baseline 0|1] [--qa-csv FILE]\n");
+               "[--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1] [--qa-csv FILE]\n");
   return 2;
 }
 
@@ -805,7 +825,7 @@ int usage() {
 
 int main(int argc, char** argv) {
   int n_conditions = 200, slices = 40, threads = 2, only = -1;
-  bool list = true, baseline = false;
+  bool list = true, baseline = false, true_stem = false;
   std::uint64_t seed = 19;
   std::string preset = "mixed", logs_from = "all", qa_csv;
   for (int a = 1; a < argc; ++a) {
@@ -836,6 +856,8 @@ int main(int argc, char** argv) {
       baseline = std::atoi(val) != 0;
     else if (k == "--qa-csv")
       qa_csv = val;
+    else if (k == "--true-stem")
+      true_stem = std::atoi(val) != 0;
     else
       return usage();
   }
@@ -854,10 +876,11 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "# Robustness sweep: %d conditions, seed %llu, preset %s, logs %s, %d slices each, "
-      "%d threads%s\n",
+      "%d threads%s%s\n",
       n_conditions, static_cast<unsigned long long>(seed), preset.c_str(), logs_from.c_str(),
       slices, threads,
-      baseline ? "; baseline: each log and section under the default phantom" : "");
+      baseline ? "; baseline: each log and section under the default phantom" : "",
+      true_stem ? "; knot pass on the true stem" : "");
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Done> done;
   std::vector<LogModel> logs_of;
@@ -885,10 +908,11 @@ int main(int argc, char** argv) {
       for (size_t k = 0; k < 3; ++k)
         if (c.log == kBundled[k]) log = bundled[k];
     }
-    Figures f = measure(c, log, slices, threads);
+    Figures f = measure(c, log, slices, threads, true_stem);
     std::fprintf(stderr, "robustness: %d/%d %s %s: %s\n", i + 1, n_conditions,
                  preset_name(c.preset), log.id.c_str(),
-                 f.error.empty() ? figures(f).c_str() : f.error.c_str());
+                 f.error.empty() ? (figures(f) + "; " + f.knot_signal).c_str()
+                                 : f.error.c_str());
     done.push_back({c, log.id, std::move(f)});
     logs_of.push_back(std::move(log));
   }

@@ -4,10 +4,12 @@
 //   1. unroll()        the volume around the pith track into a (slice, r, ω) grid of HU, with
 //                      the wood class of every sample (heartwood, sapwood, neither) from the
 //                      stem, or from estimate_heartwood() when the stem has no heartwood radius;
-//   2. to_contrast()   HU minus the wood level of the same (slice, r) band and wood class, so
-//                      that only what differs from the wood around it is left: knots, cracks;
+//   2. to_contrast()   HU minus the wood level of the same slice, wood class and ring (bin of
+//                      the outline-normalised radius), so that only what differs from the wood
+//                      around it is left: knots, cracks; scan_signal() then measures the scan's
+//                      noise and ring signal, which set the thresholds;
 //   3. label_shell()   per shell (fixed r), 2D blobs in (ω, slice) of strong contrast
-//                      (hysteresis), ω circular;
+//                      (hysteresis), ω circular; blobs shaped as sheets (rings) left out;
 //   4. track_inwards() links the blobs of neighbouring shells into knots, from the bark side
 //                      towards the pith, because knots of a whorl are apart near the surface and
 //                      all meet at the pith: a blob claimed by two knots is split between them;
@@ -73,14 +75,31 @@ struct Grid {
   // roughness mix the two there; the last 2 mm under the bark neither (bark, blur).
   std::vector<std::int16_t> heart_in, sap_in, out;
   std::vector<std::int16_t> hu;  // HU, then contrast [(i·nr + j)·nw + k]
-  // The wood level each contrast was taken from, per slice, shell and class [(i·nr + j)·2 + c]
-  // (NaN where none): contrast + level gives the HU back.
+  // Outline radius (under bark) per slice and azimuth [i·nw + k], mm, and its mean per slice.
+  std::vector<float> outer;
+  std::vector<double> outer_mean;
+  // The wood level each contrast was taken from, per slice, class and bin of the outline-
+  // normalised radius u [(i·2 + c)·nb + b] (NaN where none; see to_contrast): contrast + level
+  // gives the HU back.
+  int nb = 0;
+  double du = 0.25;
   std::vector<float> level;
+  // Outline-normalised radius of shell j at (i, k): the pith distance scaled so that the
+  // outline sits at the slice's mean outline radius. Annual rings follow the outline (a log's
+  // ovality and its eccentric growth are the rings' own), so a ring keeps one u all round.
+  double u_of(int i, int j, int k) const {
+    const float o = outer[static_cast<size_t>(i) * nw + k];
+    return o > 0 ? r(j) * outer_mean[static_cast<size_t>(i)] / o : r(j);
+  }
+  int bin_of(double u) const { return std::clamp(static_cast<int>(u / du), 0, nb - 1); }
+  float level_at(int i, int c, int j, int k) const {
+    return level[(static_cast<size_t>(i) * 2 + c) * nb + bin_of(u_of(i, j, k))];
+  }
   double hu_at(int i, int j, int k) const {
     const int c = wood_class(i, j, k);
     const std::int16_t v = hu[at(i, j, k)];
     if (c < 0 || v == kInvalid) return NAN;
-    return v + level[(static_cast<size_t>(i) * nr + j) * 2 + c];
+    return v + level_at(i, c, j, k);
   }
 
   double r(int j) const { return r0 + j * dr; }
@@ -135,6 +154,17 @@ Grid unroll(const LogVolume& volume, const Stem& stem, const KnotDetectOptions& 
     g.out[q] = g.shell_above(outer[q] - 2.0);
     if (heart[q] > 0) g.set_heartwood(q, heart[q], 2.0);
   }
+  g.outer_mean.assign(static_cast<size_t>(g.ns), 0.0);
+  for (int i = 0; i < g.ns; ++i) {
+    double s = 0;
+    int n = 0;
+    for (int k = 0; k < g.nw; ++k) {
+      const float ro = outer[static_cast<size_t>(i) * g.nw + k];
+      if (ro > 0) s += ro, ++n;
+    }
+    g.outer_mean[static_cast<size_t>(i)] = n ? s / n : 0.0;
+  }
+  g.outer = std::move(outer);
   g.hu.assign(static_cast<size_t>(g.ns) * g.nr * g.nw, kInvalid);
   // Direct bilinear sampling of the kept plane (LogVolume::at, without its per-call setup).
   const double sx = geo.spacing_x, sy = geo.spacing_y;
@@ -233,54 +263,93 @@ void estimate_heartwood(Grid& g, int threads) {
   });
 }
 
-// HU → contrast. The wood level of (slice i, shell j, class c) is the median over ω of that
-// row's samples of class c, then the median of those row levels over a few slices either side:
-// at a whorl near the pith the knots cover most of the circumference of a few slices, and the
-// neighbouring slices, clear of the whorl, carry the level there. The median over ω also takes
-// out the radial density trend and most of the annual rings (they are near circles).
+// HU → contrast. The wood level of (slice i, wood class c, outline-normalised radius u) is the
+// median of that slice's samples of class c whose u falls in the same 0.25 mm bin, then the
+// median of those levels over the slices within ±20 mm (at least half_window slices either
+// side): at a whorl near the pith the knots cover most of the circumference over their own
+// height, and the slices beyond it carry the level there. Annual rings follow the outline, not
+// circles around the pith: binning by u rather than by shell makes each ring (a latewood band
+// of +150 to +400 HU in strong-latewood wood) one level, subtracted whole, where a shell would
+// cut an oval ring into arcs that read as bright sheets along the log. For a round log u is r
+// and this is the median over ω per shell. The median also takes out the radial density trend,
+// the cupping, a calibration's offset and slope and the dry/wet level of the wood: the
+// contrast is what differs from the wood around it at the same ring: knots, cracks, rot.
 void to_contrast(Grid& g, int threads, int half_window) {
   const float kNone = std::numeric_limits<float>::quiet_NaN();
   const int stride = g.nw >= 180 ? 2 : 1;
-  std::vector<float> level(static_cast<size_t>(g.ns) * g.nr * 2, kNone);
+  double umax = g.r(g.nr - 1);
+  for (int i = 0; i < g.ns; ++i)
+    for (int k = 0; k < g.nw; ++k)
+      if (g.outer[static_cast<size_t>(i) * g.nw + k] > 0) umax = std::max(umax, g.u_of(i, g.nr - 1, k));
+  g.nb = static_cast<int>(std::ceil(umax / g.du)) + 2;
+  const size_t per_slice = static_cast<size_t>(2) * g.nb;
+  std::vector<float> level(static_cast<size_t>(g.ns) * per_slice, kNone);
+  // Fewest samples for a bin's median (every other azimuth: a bin of a round log's shell holds
+  // 180); emptier bins are interpolated from their neighbours along u.
+  const int min_n = std::max(8, g.nw / stride / 20);
   parallel_for(g.ns, threads, [&](int i) {
-    std::array<std::vector<std::int16_t>, 2> v;
+    std::vector<int> count(per_slice + 1, 0);
+    std::vector<std::pair<int, std::int16_t>> smp;
     for (int j = 0; j < g.nr; ++j) {
-      v[0].clear(), v[1].clear();
       const std::int16_t* row = &g.hu[g.at(i, j, 0)];
       // Every other azimuth is plenty for a median (and halves the cost of the pass).
       for (int k = 0; k < g.nw; k += stride) {
         const int c = g.wood_class(i, j, k);
-        if (c >= 0 && row[k] != kInvalid) v[static_cast<size_t>(c)].push_back(row[k]);
+        if (c < 0 || row[k] == kInvalid) continue;
+        const int b = c * g.nb + g.bin_of(g.u_of(i, j, k));
+        smp.emplace_back(b, row[k]);
+        ++count[static_cast<size_t>(b) + 1];
       }
-      for (int c = 0; c < 2; ++c) {
-        auto& x = v[static_cast<size_t>(c)];
-        if (static_cast<int>(x.size()) * stride < g.nw / 10) continue;  // too few: no level
-        level[(static_cast<size_t>(i) * g.nr + j) * 2 + c] = median_inplace(x);
+    }
+    for (size_t b = 1; b <= per_slice; ++b) count[b] += count[b - 1];
+    std::vector<std::int16_t> sorted(smp.size());
+    std::vector<int> fill(count.begin(), count.end() - 1);
+    for (const auto& [b, v] : smp) sorted[static_cast<size_t>(fill[static_cast<size_t>(b)]++)] = v;
+    float* lv = &level[static_cast<size_t>(i) * per_slice];
+    for (size_t b = 0; b < per_slice; ++b) {
+      const int n = count[b + 1] - count[b];
+      if (n < min_n) continue;
+      auto first = sorted.begin() + count[b], mid = first + n / 2;
+      std::nth_element(first, mid, first + n);
+      lv[b] = *mid;
+    }
+    // Gaps (a round log fills one bin per 1 mm shell) linear between the nearest filled bins,
+    // up to 3 mm apart.
+    const int max_gap = static_cast<int>(std::ceil(3.0 / g.du));
+    for (int c = 0; c < 2; ++c) {
+      float* l = lv + static_cast<size_t>(c) * g.nb;
+      int prev = -1;
+      for (int b = 0; b < g.nb; ++b) {
+        if (std::isnan(l[b])) continue;
+        if (prev >= 0 && b - prev > 1 && b - prev <= max_gap)
+          for (int m = prev + 1; m < b; ++m)
+            l[m] = l[prev] + (l[b] - l[prev]) * static_cast<float>(m - prev) / (b - prev);
+        prev = b;
       }
     }
   });
+  double dz = 5.0;
+  if (g.ns >= 2) dz = std::max(0.1, (g.z.back() - g.z.front()) / (g.ns - 1));
+  const int hw = std::clamp(static_cast<int>(std::lround(20.0 / dz)), half_window, 20);
   std::vector<float> smooth(level.size(), kNone);
   parallel_for(g.ns, threads, [&](int i) {
     std::vector<float> w;
-    for (int j = 0; j < g.nr; ++j)
-      for (int c = 0; c < 2; ++c) {
-        w.clear();
-        for (int d = -half_window; d <= half_window; ++d) {
-          const int ii = i + d;
-          if (ii < 0 || ii >= g.ns) continue;
-          const float l = level[(static_cast<size_t>(ii) * g.nr + j) * 2 + c];
-          if (!std::isnan(l)) w.push_back(l);
-        }
-        if (w.empty()) continue;
-        smooth[(static_cast<size_t>(i) * g.nr + j) * 2 + c] = median_inplace(w);
+    for (size_t b = 0; b < per_slice; ++b) {
+      w.clear();
+      for (int ii = std::max(0, i - hw); ii <= std::min(g.ns - 1, i + hw); ++ii) {
+        const float l = level[static_cast<size_t>(ii) * per_slice + b];
+        if (!std::isnan(l)) w.push_back(l);
       }
+      if (!w.empty()) smooth[static_cast<size_t>(i) * per_slice + b] = median_inplace(w);
+    }
   });
+  g.level = std::move(smooth);
   parallel_for(g.ns, threads, [&](int i) {
     for (int j = 0; j < g.nr; ++j) {
       std::int16_t* row = &g.hu[g.at(i, j, 0)];
       for (int k = 0; k < g.nw; ++k) {
         const int c = g.wood_class(i, j, k);
-        const float l = c < 0 ? kNone : smooth[(static_cast<size_t>(i) * g.nr + j) * 2 + c];
+        const float l = c < 0 ? kNone : g.level_at(i, c, j, k);
         if (row[k] == kInvalid || std::isnan(l)) {
           row[k] = kInvalid;
           continue;
@@ -289,7 +358,69 @@ void to_contrast(Grid& g, int threads, int half_window) {
       }
     }
   });
-  g.level = std::move(smooth);
+}
+
+// The scan's own noise and ring signal, from the contrast grid (knots are a small share of
+// the samples, so robust spreads see the wood): noise from the differences between
+// neighbouring slices at the same (r, ω) (rings run along the log and cancel there; the noise
+// of separate slices does not), 1.4826·MAD/√2; the residual spread of the contrast itself
+// (noise plus what the ring levels did not take out: rings that wander off the outline's
+// shape, the pith's error), from its 10th and 90th percentiles (a MAD misses a latewood band
+// that covers a third of the samples); and the ring signal, the RMS of the level profile along
+// u about its own 5 mm running median (the rings the levels took out).
+struct ScanSignal {
+  double noise_hu = 0, residual_hu = 0, ring_hu = 0;
+};
+
+double mad_sigma(std::vector<float>& v) {
+  if (v.size() < 16) return 0;
+  const double m = median_inplace(v);
+  for (float& x : v) x = std::abs(x - static_cast<float>(m));
+  return 1.4826 * median_inplace(v);
+}
+
+// (p90 − p10) / 2.563: σ for Gaussian samples; for knots a tail of up to 10 % is ignored.
+double quantile_sigma(std::vector<float>& v) {
+  if (v.size() < 16) return 0;
+  const size_t lo = v.size() / 10, hi = v.size() - 1 - v.size() / 10;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
+  const float a = v[lo];
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(hi), v.end());
+  return (v[hi] - a) / 2.563;
+}
+
+ScanSignal scan_signal(const Grid& g) {
+  ScanSignal s;
+  std::vector<float> dif, con, ring;
+  const int sj = std::max(1, g.nr / 40), sk = std::max(1, g.nw / 90);
+  const int si = std::max(1, g.ns / 100);
+  for (int i = 0; i + 1 < g.ns; i += si)
+    for (int j = 0; j < g.nr; j += sj)
+      for (int k = (i / si + j) % sk; k < g.nw; k += sk) {
+        const std::int16_t a = g.hu[g.at(i, j, k)], b = g.hu[g.at(i + 1, j, k)];
+        if (a == kInvalid) continue;
+        con.push_back(a);
+        if (b != kInvalid) dif.push_back(static_cast<float>(b - a));
+      }
+  s.noise_hu = mad_sigma(dif) / std::sqrt(2.0);
+  s.residual_hu = quantile_sigma(con);
+  const int half = static_cast<int>(std::lround(2.5 / g.du));
+  std::vector<float> w;
+  for (int i = 0; i < g.ns; i += si)
+    for (int c = 0; c < 2; ++c) {
+      const float* l = &g.level[(static_cast<size_t>(i) * 2 + c) * g.nb];
+      for (int b = half; b + half < g.nb; b += 2) {
+        if (std::isnan(l[b])) continue;
+        w.clear();
+        for (int m = b - half; m <= b + half; ++m)
+          if (!std::isnan(l[m])) w.push_back(l[m]);
+        if (static_cast<int>(w.size()) > half) ring.push_back(l[b] - static_cast<float>(median_inplace(w)));
+      }
+    }
+  double ss = 0;
+  for (float x : ring) ss += static_cast<double>(x) * x;
+  s.ring_hu = ring.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(ring.size()));
+  return s;
 }
 
 // A connected set of samples of one shell; pixels are i·nw + k.
@@ -300,11 +431,17 @@ struct Blob {
 // Blobs of one shell: samples ≥ low connected (8-neighbourhood, ω circular), kept when one of
 // them reaches high and their area on the cylinder (r·dω per sample times the slice spacing) is
 // at least a quarter of a min_diameter disc (partial volume in z shrinks small knots).
+// A knot crosses a shell as a compact disc, about as tall as it is wide. A blob that runs along
+// the log (taller than sheet_z_mm and 2.5 times its width) or round it (wider than sheet_arc_mm
+// and three times its height, beyond the whorls near the pith where a whorl's knots merge into
+// one band) is part of a sheet: a latewood band the ring levels did not take out (a ring that
+// wanders off the outline's shape, the pith's error), the heartwood border. Those are counted in
+// *sheets and left out.
 std::vector<Blob> label_shell(const Grid& g, int j, double low, double high, double min_area,
-                              double dz) {
+                              double dz, const KnotDetectOptions& o, int* sheets) {
   std::vector<Blob> out;
   const int n = g.ns * g.nw;
-  std::vector<std::uint8_t> seen(static_cast<size_t>(n), 0);
+  std::vector<std::uint8_t> seen(static_cast<size_t>(n), 0), col(static_cast<size_t>(g.nw), 0);
   std::vector<int> stack;
   const double px_area = g.r(j) * g.dw * dz;
   for (int s = 0; s < n; ++s) {
@@ -335,8 +472,23 @@ std::vector<Blob> label_shell(const Grid& g, int j, double low, double high, dou
         }
       }
     }
-    if (strong && static_cast<double>(b.pix.size()) * px_area >= min_area)
-      out.push_back(std::move(b));
+    if (!strong || static_cast<double>(b.pix.size()) * px_area < min_area) continue;
+    // Height: the slices' z span plus one spacing; width: the azimuths it covers, as arc.
+    int i0 = g.ns, i1 = -1, cols = 0;
+    for (int p : b.pix) {
+      i0 = std::min(i0, p / g.nw), i1 = std::max(i1, p / g.nw);
+      if (!col[static_cast<size_t>(p % g.nw)]) col[static_cast<size_t>(p % g.nw)] = 1, ++cols;
+    }
+    for (int p : b.pix) col[static_cast<size_t>(p % g.nw)] = 0;
+    const double height = g.z[static_cast<size_t>(i1)] - g.z[static_cast<size_t>(i0)] + dz;
+    const double width = cols * g.r(j) * g.dw;
+    const bool along = height > std::max(o.sheet_z_mm, 2.5 * width);
+    const bool round = g.r(j) >= o.sheet_min_r_mm && width > std::max(o.sheet_arc_mm, 3 * height);
+    if (along || round) {
+      ++*sheets;
+      continue;
+    }
+    out.push_back(std::move(b));
   }
   return out;
 }
@@ -730,6 +882,22 @@ double z_slope(const std::vector<KnotShell>& shells) {
   return srr > 0 ? srz / srr : 0.0;
 }
 
+// Least-squares slope of the arc position r·(ω − ω_ref) against r (ω unwrapped around the
+// outermost shell): how many mm round the log the centre moves per mm outwards.
+double arc_slope(const std::vector<KnotShell>& shells) {
+  const double w_ref = shells.back().omega;
+  double sr = 0, sa = 0;
+  for (const KnotShell& s : shells) sr += s.r, sa += s.r * angle_diff(s.omega, w_ref);
+  const double n = static_cast<double>(shells.size());
+  const double mr = sr / n, ma = sa / n;
+  double srr = 0, sra = 0;
+  for (const KnotShell& s : shells) {
+    srr += (s.r - mr) * (s.r - mr);
+    sra += (s.r - mr) * (s.r * angle_diff(s.omega, w_ref) - ma);
+  }
+  return srr > 0 ? sra / srr : 0.0;
+}
+
 // What the knot looks like on shell j around the predicted axis point: mean contrast inside the
 // disc of the knot's diameter on the cylinder, and mean contrast in the 2 mm ring around it.
 // Returns false when the disc has no wood samples (bark side, heartwood border band).
@@ -799,13 +967,13 @@ bool local_centre(const Grid& g, int j, double w, double z, double rad, double s
 }
 
 // Extends a segmented knot outwards along its extrapolated axis until its contrast is gone.
-// Where the knot still shows clearly (mean contrast beyond twice follow_min_contrast) the
+// Where the knot still shows clearly (mean contrast beyond twice follow_min) the
 // path is pulled towards the local centroid (a third of the way per shell), so that the
 // extrapolation, fitted on the heartwood part only, does not drift off a long sapwood part.
 // Evidence of the knot on a shell is the mean of it and its two neighbours (noise): brighter
 // than the wood (a sound knot in the sapwood), or darker, or with a dark ring (a dead knot and
 // its encased bark); the knot ends after follow_misses shells without evidence.
-void follow_outwards(const Grid& g, const KnotDetectOptions& o, KnotTrace* t) {
+void follow_outwards(const Grid& g, const KnotDetectOptions& o, double follow_min, KnotTrace* t) {
   const Axis axis = fit_axis(t->shells);
   // The diameter carried outwards: the mean of the last few segmented shells.
   double d = 0;
@@ -823,7 +991,7 @@ void follow_outwards(const Grid& g, const KnotDetectOptions& o, KnotTrace* t) {
     double c = 0, ring = 0;
     for (size_t q = from; q < to; ++q) c += probed[q].contrast, ring += probed[q].ring_hu;
     c /= static_cast<double>(to - from), ring /= static_cast<double>(to - from);
-    return std::abs(c) >= o.follow_min_contrast || ring <= -2 * o.follow_min_contrast;
+    return std::abs(c) >= follow_min || ring <= -2 * follow_min;
   };
   for (int j = j0; j < g.nr; ++j) {
     KnotShell s;
@@ -835,7 +1003,7 @@ void follow_outwards(const Grid& g, const KnotDetectOptions& o, KnotTrace* t) {
     }
     blind = 0;
     probed.push_back(s);
-    if (std::abs(s.contrast) >= 2 * o.follow_min_contrast) {
+    if (std::abs(s.contrast) >= 2 * follow_min) {
       double wc = 0, zc = 0;
       if (local_centre(g, j, w, z, 0.5 * d + 2.0, s.contrast > 0 ? 1.0 : -1.0, &wc, &zc)) {
         off_w += angle_diff(wc, w) / 3;
@@ -923,6 +1091,18 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
   if (!stem.has_heartwood()) estimate_heartwood(g, threads);
   sum.unroll_s = lap();
   to_contrast(g, threads, options.level_half_window);
+  // Thresholds from the scan itself: the contrast's spread where there is no knot sets how far
+  // above it a knot must stand: the noise, and half of what the ring levels left (the rest of
+  // the rings is told from knots by shape below: a threshold over every latewood arc would be
+  // over the dead knots too). The options' values are floors, met by a clean scan.
+  const ScanSignal sig = scan_signal(g);
+  const double ring_left = std::sqrt(std::max(0.0, sq(sig.residual_hu) - sq(sig.noise_hu)));
+  const double spread = std::hypot(sig.noise_hu, 0.5 * ring_left);
+  const double low = std::max(options.low_contrast, options.low_sigmas * spread);
+  const double high = std::max(options.high_contrast, options.high_sigmas * spread);
+  const double follow_min = std::max(options.follow_min_contrast, options.follow_sigmas * spread);
+  sum.noise_hu = sig.noise_hu, sum.residual_hu = sig.residual_hu, sum.ring_hu = sig.ring_hu;
+  sum.low_hu = low, sum.high_hu = high, sum.follow_hu = follow_min;
   sum.contrast_s = lap();
   sum.shells = g.nr, sum.slices = g.ns, sum.omegas = g.nw;
 
@@ -930,14 +1110,16 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
   if (g.ns >= 2) dz = (g.z.back() - g.z.front()) / (g.ns - 1);
   const double min_area = 0.25 * (kTwoPi / 8) * sq(options.min_diameter_mm);
   std::vector<std::vector<Blob>> blobs(static_cast<size_t>(g.nr));
+  std::vector<int> sheets(static_cast<size_t>(g.nr), 0);
   const int j_min = std::max(0, static_cast<int>(std::ceil((options.min_r_mm - g.r0) / g.dr)));
   parallel_for(g.nr - j_min, threads, [&](int n) {
     const int j = j_min + n;
     blobs[static_cast<size_t>(j)] =
-        label_shell(g, j, options.low_contrast, options.high_contrast, min_area, dz);
+        label_shell(g, j, low, high, min_area, dz, options, &sheets[static_cast<size_t>(j)]);
   });
   sum.segment_s = lap();
   for (const auto& b : blobs) sum.blobs += static_cast<int>(b.size());
+  for (int n : sheets) sum.rejected_sheet_blobs += n;
   std::vector<Track> tracks = track_inwards(g, blobs, j_min, options.min_split_mm);
   resolve_branches(g, tracks);
   sum.tracks = static_cast<int>(tracks.size());
@@ -955,7 +1137,10 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
   for (const Track& t : tracks) {
     if (t.shell.empty()) continue;
     const double span = (t.shell.front() - t.shell.back()) * g.dr;
-    if (span < options.min_length_mm) continue;
+    if (span < options.min_length_mm) {
+      ++sum.rejected_short;
+      continue;
+    }
     KnotTrace kt;
     for (size_t n = t.shell.size(); n-- > 0;)
       if (!t.pix[n].empty() && !truncated(g, t.shell[n], t.pix[n]))
@@ -964,16 +1149,41 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
                                           options.diameter_from_arc));
     // What is left after the truncated shells must still be long enough to be a knot.
     if (kt.shells.size() < 2 ||
-        kt.shells.back().r - kt.shells.front().r + g.dr < options.min_length_mm)
+        kt.shells.back().r - kt.shells.front().r + g.dr < options.min_length_mm) {
+      ++sum.rejected_short;
       continue;
+    }
     // A knot rises slowly with r (the measured logs: dz/dr between -0.3 and 0.8). A run whose
     // centre climbs or falls steeply is something lying along the log (the heartwood border, a
     // crack, a support), not a branch: following it outwards would extrapolate that slope.
-    if (std::abs(z_slope(kt.shells)) > options.max_axis_slope) continue;
+    if (std::abs(z_slope(kt.shells)) > options.max_axis_slope) {
+      ++sum.rejected_steep;
+      continue;
+    }
+    // Nor does it turn round the log: ω = d0 + d1·ln r moves a knot's centre by d1 mm of arc
+    // per mm of r, and d1 stays well under one. A run that slides round the log as it goes
+    // out is a ring: an oval latewood band cut by the shells into arcs that move with r.
+    if (std::abs(arc_slope(kt.shells)) > options.max_arc_slope) {
+      ++sum.rejected_drift;
+      continue;
+    }
     double dmax = 0;
     for (const KnotShell& s : kt.shells) dmax = std::max(dmax, s.diameter);
-    if (dmax < options.min_diameter_mm) continue;
-    follow_outwards(g, options, &kt);
+    if (dmax < options.min_diameter_mm) {
+      ++sum.rejected_small;
+      continue;
+    }
+    follow_outwards(g, options, follow_min, &kt);
+    // A knot is a tube running out from the pith: longer along r than it is thick. A pocket
+    // (resin between two rings, a wet patch, rot) is a lens or a blob no longer than wide.
+    std::vector<double> ds;
+    for (const KnotShell& s : kt.shells)
+      if (!s.predicted) ds.push_back(s.diameter);
+    const double d_med = ds.empty() ? 0.0 : median_inplace(ds);
+    if (kt.shells.back().r - kt.shells.front().r + g.dr < options.min_length_diameters * d_med) {
+      ++sum.rejected_stubby;
+      continue;
+    }
     const KnotShell& last = kt.shells.back();
     kt.r_last_seen = last.r;
     kt.reaches_surface = last.r >= stem.radius_at(last.omega, last.z) - options.surface_mm;

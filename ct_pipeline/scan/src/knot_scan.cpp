@@ -45,8 +45,9 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
   threads = std::clamp(threads, 1, 16);
   KnotDetectOptions detect = options.detect;
   if (detect.threads <= 0) detect.threads = threads;
-  std::vector<KnotTrace> traces = detect_knots(volume, stem, detect);
+  std::vector<KnotTrace> traces = detect_knots(volume, stem, detect, &out.detect);
   out.traces_found = static_cast<int>(traces.size());
+  out.rejected_as_rings = out.detect.rejected_as_rings();
   const auto t1 = clock::now();
 
   // Fits are independent: threads take traces in turn.

@@ -9,9 +9,12 @@
 //   KnotDetectOptions o;
 //   std::vector<KnotTrace> traces = detect_knots(volume, stem, o);
 //
-// The wood level, and so the contrast, is taken per wood class: heartwood and sapwood from the
-// stem's heartwood radius, or, for a stem without one, from a border estimated from the voxels
-// (where the sector-median HU drops 200 HU going inwards).
+// The wood level, and so the contrast, is taken per wood class (heartwood and sapwood from the
+// stem's heartwood radius, or, for a stem without one, from a border estimated from the voxels,
+// where the sector-median HU drops 200 HU going inwards) and per ring (bins of the outline-
+// normalised radius: rings follow the outline). Thresholds follow the scan's own noise and
+// ring signal; candidates shaped as rings (sheets along or round the log, arcs sliding round
+// it) are rejected and counted (KnotDetectSummary).
 //
 // Thread-safe (pure); uses up to options.threads threads. Memory: the unrolled grid, 2 bytes a
 // sample (800 slices x 125 shells x 360 azimuths: 72 MB).
@@ -30,22 +33,42 @@ struct KnotDetectOptions {
   int n_omega = 360;           // azimuth samples (1°: 1.7 mm of arc at r = 100 mm)
   double min_diameter_mm = 4;  // smaller blobs are noise, not knots
   double min_r_mm = 5;         // segment from here outwards (the pith itself is not a knot)
-  // Segmentation (contrast = HU minus the wood level of the same slice, r and wood class):
-  // blobs of samples >= low_contrast holding one >= high_contrast. Knots in dry heartwood are
-  // about +500 (sound) and +320 (dead); in wet sapwood +50 and -130 only, which is why knots
-  // are segmented where they are strong and followed from there (see follow_*).
+  // Segmentation (contrast = HU minus the wood level of the same slice, wood class and ring):
+  // blobs of samples >= the low threshold holding one >= the high threshold. Knots in dry
+  // heartwood are about +500 (sound) and +320 (dead); in wet sapwood +50 and -130 only, which
+  // is why knots are segmented where they are strong and followed from there (see follow_*).
+  // The thresholds are the scan's own: low_sigmas and high_sigmas times the spread of the
+  // contrast where there is no knot (noise and the rings the levels left, measured per scan,
+  // KnotDetectSummary), never under low_contrast and high_contrast (a clean scan's spread is
+  // some 10-20 HU: the floors hold there).
   double low_contrast = 120;
   double high_contrast = 250;
+  double low_sigmas = 4;
+  double high_sigmas = 7;
   double min_length_mm = 4;  // shorter segmented runs along r are noise
   double max_axis_slope = 2;  // steeper runs (|dz/dr|, least squares) lie along the log: no knot
+  // Rings told from knots by shape (knot_detect.cpp): a shell's blob taller along the log than
+  // sheet_z_mm and 2.5 times its width, or wider round it than sheet_arc_mm and three times its
+  // height (from sheet_min_r_mm out, beyond the whorls merging near the pith), is a sheet; a
+  // run whose centre moves round the log by more than max_arc_slope mm per mm of r is a ring
+  // cut into arcs; a run (with its followed part) shorter along r than min_length_diameters
+  // times its median diameter is a pocket (resin, wet wood, rot), not a branch.
+  double sheet_z_mm = 60;
+  double sheet_arc_mm = 60;
+  double sheet_min_r_mm = 30;
+  double max_arc_slope = 2;
+  double min_length_diameters = 1.0;
   // Two blobs of one knot's shell whose centroids are this far apart (on the cylinder) are two
   // knots that touched further out; closer, they are one knot broken up by noise.
   double min_split_mm = 8;
-  int level_half_window = 3;  // slices either side pooled for the wood level (whorls)
+  // Slices either side pooled for the wood level (whorls): those within ±20 mm, at least this.
+  int level_half_window = 3;
   // Following outwards along the extrapolated axis: a shell is evidence when the mean contrast
-  // of three shells is beyond ±follow_min_contrast (or the ring below twice its negative); the
-  // knot ends after follow_misses shells without evidence.
+  // of three shells is beyond ± the follow threshold (or the ring below twice its negative);
+  // the knot ends after follow_misses shells without evidence. The threshold is follow_sigmas
+  // times the scan's contrast spread, at least follow_min_contrast.
   double follow_min_contrast = 20;
+  double follow_sigmas = 1.0;
   int follow_misses = 3;
   double surface_mm = 4;  // reaches_surface: last seen within this of the outer radius
   // Shell diameter from the widest arc instead of the partial-volume area (see KnotShell).
@@ -92,6 +115,16 @@ struct KnotDetectSummary {
   int blobs = 0;                           // segmented 2D blobs, all shells
   int tracks = 0;                          // linked runs before the length/size filters
   int traces = 0;                          // knots returned
+  // The scan's own signal (HU): noise (neighbouring slices), the contrast's residual spread,
+  // the ring signal the levels took out; the thresholds that followed from them.
+  double noise_hu = 0, residual_hu = 0, ring_hu = 0;
+  double low_hu = 0, high_hu = 0, follow_hu = 0;
+  // Candidates rejected, by reason: shell blobs shaped as sheets (along or round the log),
+  // runs sliding round the log (ring arcs), runs too short along r, too steep in z, too thin,
+  // or stubby (pockets).
+  int rejected_sheet_blobs = 0, rejected_drift = 0, rejected_short = 0, rejected_steep = 0,
+      rejected_small = 0, rejected_stubby = 0;
+  int rejected_as_rings() const { return rejected_sheet_blobs + rejected_drift; }
   // unroll_s includes estimating the heartwood border (stems without one); follow_s includes
   // measuring the segmented shells.
   double unroll_s = 0, contrast_s = 0, segment_s = 0, track_s = 0, follow_s = 0, total_s = 0;

@@ -34,6 +34,10 @@ struct KnotScan {
   std::vector<KnotFitReport> fits;    // same order
   int traces_found = 0;               // detected before fitting
   int duplicates = 0;                 // fitted knots dropped as another's double (knot_scan.cpp)
+  // Knot candidates rejected as rings (shell blobs shaped as sheets, runs sliding round the log;
+  // detect.rejected_* has every reason) and the detection's signal, thresholds and timings.
+  int rejected_as_rings = 0;
+  KnotDetectSummary detect;
   std::vector<std::string> rejected;  // traces not fitted, why (one line each)
   double seconds_detect = 0, seconds_fit = 0, seconds = 0;
 };
