@@ -39,6 +39,12 @@ ContourResult circle_around(Vec2 pith, Vec2 centre, double R, int n = 360) {
 // `n` slices 5 mm apart of a straight round log (radius 120 mm) with a sound pith.
 StemScan sound_scan(int n = 40) {
   StemScan s;
+  s.levels.valid = true;  // a green log at the nominal calibration
+  s.levels.air_hu = -1000;
+  s.levels.wood_hu = s.levels.wood_high_hu = -50;
+  s.levels.wood_low_hu = -500;
+  s.levels.two_wood_modes = true;
+  s.levels.noise_air_hu = s.levels.noise_wood_hu = 20;
   for (int i = 0; i < n; ++i) {
     StemSliceRecord r;
     r.z = 5.0 * i;
@@ -150,6 +156,22 @@ TEST(AssessScan, NoLogInAnySliceDoesNotLookLikeALog) {
   StemScan s = sound_scan(10);
   for (auto& r : s.slices) r.measured = false;
   const ScanQaDetail d = assess_scan(s, nullptr, geometry_of(10));
+  EXPECT_FALSE(d.verdict.trusted);
+  EXPECT_FALSE(stage(d.verdict, "levels").ok);
+}
+
+TEST(AssessScan, TheLevelsStageNamesAShiftedCalibrationAndFailsWithoutLevels) {
+  StemScan s = sound_scan();
+  s.levels.air_hu = -600;  // everything reads 400 HU high
+  s.levels.shift_hu = 400;
+  ScanQaDetail d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_TRUE(d.verdict.trusted);  // the thresholds followed the levels: a note, not a failure
+  ASSERT_FALSE(d.verdict.warnings.empty());
+  EXPECT_NE(d.verdict.warnings[0].find("HU appear shifted by about +400"), std::string::npos)
+      << d.verdict.warnings[0];
+  EXPECT_NE(qa_headline(d.verdict).find("trusted, with notes"), std::string::npos);
+  s.levels.valid = false;  // no air and wood modes: not a log in air
+  d = assess_scan(s, nullptr, geometry_of(40));
   EXPECT_FALSE(d.verdict.trusted);
   EXPECT_FALSE(stage(d.verdict, "levels").ok);
 }

@@ -207,11 +207,36 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
   // ---- levels: the scan's own ----
   {
     ScanQa::Stage st{"levels", true, 1.0, {}};
+    const ScanLevels& L = scan.levels;
     if (measured == 0) {
       st.ok = false;
       st.confidence = 0;
       st.notes.push_back("no slice holds a log: the scan does not look like a log");
       warnings.push_back("no slice holds a log: the scan does not look like a log");
+    } else if (!L.valid) {
+      st.ok = false;
+      st.confidence = 0.2;
+      const std::string w = "no clear air and wood levels in the scan's histogram: it does not "
+                            "look like a log in air" + (L.notes.empty() ? std::string() : " (" + L.notes + ")");
+      st.notes.push_back(w);
+      warnings.push_back(w);
+    } else {
+      st.notes.push_back("levels: " + describe(L));
+      char line[200];
+      if (std::abs(L.shift_hu) >= o.levels_shift_note_hu) {
+        std::snprintf(line, sizeof line,
+                      "HU appear shifted by about %+.0f (air reads %.0f): thresholds were set from "
+                      "the scan's own levels", L.shift_hu, L.air_hu);
+        st.notes.push_back(line);
+        warnings.push_back(line);
+      }
+      if (L.dried) {
+        std::snprintf(line, sizeof line, "the wood reads about %.0f HU with no wet sapwood: a dried log",
+                      L.wood_hu);
+        st.notes.push_back(line);
+      }
+      if (L.air_clipped) st.notes.push_back("air is clipped at the data's floor: a windowed export");
+      if (!L.notes.empty()) st.notes.push_back(L.notes);
     }
     v.stages.push_back(std::move(st));
   }
@@ -315,6 +340,15 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                   knots->knots.size(), knots->knots.size() / std::max(1e-3, measured * dz * 1e-3),
                   knots->rejected.size());
     st.notes.push_back(line);
+    if (knots->rejected_as_rings > 0) {
+      std::snprintf(line, sizeof line,
+                    "%d knot candidates rejected as rings (sheets %d, arcs %d); ring signal %.0f "
+                    "HU over noise %.0f HU",
+                    knots->rejected_as_rings, knots->detect.rejected_sheet_blobs,
+                    knots->detect.rejected_drift, knots->detect.ring_hu, knots->detect.noise_hu);
+      st.notes.push_back(line);
+    }
+    d.knot_candidates_rejected_as_rings = knots->rejected_as_rings;
     if (d.knots_per_m > o.knots_max_per_m) {
       st.ok = false;
       st.confidence = 0.2;

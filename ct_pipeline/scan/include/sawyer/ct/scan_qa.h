@@ -26,6 +26,9 @@
 namespace sawyer::ct {
 
 struct QaOptions {
+  // Levels: an apparent calibration shift (the air mode off -1000 HU) at least this large is
+  // reported (the thresholds follow the scan's own levels either way).
+  double levels_shift_note_hu = 75.0;
   // Pith. A refined pith whose ring alignment (signal share, 0..1) is below this is weak
   // evidence; one further than pith_residual_mm from the smoothed track disagrees with its
   // neighbours.
@@ -79,7 +82,8 @@ struct ScanQaDetail {
   double outline_suspect_share = 0;
   double outline_at_edge_share = 0;  // slices cut by the image's edge
   double knots_per_m = 0;
-  int knot_candidates_rejected = 0;
+  int knot_candidates_rejected = 0;          // traces not fitted
+  int knot_candidates_rejected_as_rings = 0;  // shaped as rings (KnotScan::rejected_as_rings)
 };
 
 // `knots` may be null (a stem-only scan). `geometry` is the scanned source's.
