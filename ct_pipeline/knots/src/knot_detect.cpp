@@ -154,17 +154,36 @@ Grid unroll(const LogVolume& volume, const Stem& stem, const KnotDetectOptions& 
     g.out[q] = g.shell_above(outer[q] - 2.0);
     if (heart[q] > 0) g.set_heartwood(q, heart[q], 2.0);
   }
+  // The outline the rings follow: the log's overall shape, not the bark's local bumps or a
+  // stretch of outline the stem pass got wrong (loose bark, a log touching this one): per
+  // slice, the running median of the outline radius over ±30°, kept within 0.8-1.25 of the
+  // slice's median (a log's ovality stays inside that; beyond it the outline is not the
+  // rings').
+  g.outer.assign(nq, 0.f);
   g.outer_mean.assign(static_cast<size_t>(g.ns), 0.0);
-  for (int i = 0; i < g.ns; ++i) {
+  parallel_for(g.ns, threads, [&](int i) {
+    const float* ro = &outer[static_cast<size_t>(i) * g.nw];
+    std::vector<float> w;
+    for (int k = 0; k < g.nw; ++k)
+      if (ro[k] > 0) w.push_back(ro[k]);
+    if (w.empty()) return;
+    const double med = median_inplace(w);
+    const int half = std::max(1, static_cast<int>(std::lround(g.nw / 12.0)));
     double s = 0;
     int n = 0;
     for (int k = 0; k < g.nw; ++k) {
-      const float ro = outer[static_cast<size_t>(i) * g.nw + k];
-      if (ro > 0) s += ro, ++n;
+      if (ro[k] <= 0) continue;
+      w.clear();
+      for (int d = -half; d <= half; d += 2) {
+        const float x = ro[((k + d) % g.nw + g.nw) % g.nw];
+        if (x > 0) w.push_back(x);
+      }
+      const double sm = std::clamp(median_inplace(w), 0.8 * med, 1.25 * med);
+      g.outer[static_cast<size_t>(i) * g.nw + k] = static_cast<float>(sm);
+      s += sm, ++n;
     }
     g.outer_mean[static_cast<size_t>(i)] = n ? s / n : 0.0;
-  }
-  g.outer = std::move(outer);
+  });
   g.hu.assign(static_cast<size_t>(g.ns) * g.nr * g.nw, kInvalid);
   // Direct bilinear sampling of the kept plane (LogVolume::at, without its per-call setup).
   const double sx = geo.spacing_x, sy = geo.spacing_y;

@@ -285,7 +285,7 @@ bool robust_fourier(const std::vector<double>& r, const std::vector<bool>& valid
 // ray reached air. Each ray's walk starts kHintMm inside the previous one's edge when that is
 // in the log (the pith otherwise), as the contour's rays do.
 double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
-                  const ContourOptions& o) {
+                  const ContourOptions& o, int* rays) {
   const int air_stop = static_cast<int>(std::ceil(kAirStopMm / h));
   const int hint_back = static_cast<int>(std::ceil(2 * kHintMm / h));
   const double near = std::max(kBarkNearMm, h), far = near + std::max(kBarkFarMm - kBarkNearMm, 1.5 * h);
@@ -332,6 +332,7 @@ double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
       win.push_back(img.at(pith.x + r * c, pith.y + r * s));
     per_ray.push_back(static_cast<float>(median_inplace(win)));
   }
+  *rays = static_cast<int>(per_ray.size());
   return per_ray.size() >= 3 ? median_inplace(per_ray) : NAN;
 }
 
@@ -361,11 +362,21 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
   // at least as dense as the level (bark is not; wood is).
   double edge_level = options.under_bark_hu, wood_min = options.wood_min_hu;
   if (std::isfinite(options.outer_wood_hu)) {
-    out.bark_hu = bark_level(img, pith_mm, reach, h, options);
+    int rays = 0;
+    out.bark_hu = bark_level(img, pith_mm, reach, h, options, &rays);
+    // The bark level is a median over many rays: lighter than the wood by a few of its standard
+    // errors is bark (a dried log's bark is only 50-120 HU lighter than its wood, under 2 pixel
+    // sigmas of a noisy scan). Where the bark is missing the outermost fall through any level
+    // between wood and air is the surface all the same.
+    const double se = options.noise_hu / std::sqrt(std::max(1, rays));
     const bool bark_seen = std::isfinite(out.bark_hu) &&
-                           options.outer_wood_hu - out.bark_hu >= options.bark_sigmas * options.noise_hu;
-    edge_level = 0.5 * (options.outer_wood_hu + (bark_seen ? out.bark_hu : options.air_hu));
-    wood_min = edge_level;
+                           options.outer_wood_hu - out.bark_hu >= options.bark_sigmas * se;
+    const double outside = bark_seen ? out.bark_hu : options.air_hu;
+    edge_level = 0.5 * (options.outer_wood_hu + outside);
+    // The inside of a surface: nearer the wood than the bark (a fall within noisy bark has bark
+    // inside); not the edge level itself, which a wood level a little under the histogram's mode
+    // (moisture, drift along the log) would fail.
+    wood_min = edge_level - 0.25 * (options.outer_wood_hu - outside);
   }
   out.under_bark_hu = edge_level;
 

@@ -105,9 +105,9 @@ struct ContourOptions {
   // From the scan's levels (the stem pass sets these and the fields above from ScanLevels):
   // when outer_wood_hu is set (not NaN), each slice measures its bark level on a few rays (the
   // median just inside the log's edge with air) and takes under_bark_hu midway between
-  // outer_wood_hu (the densest wood mode) and that bark, or midway to air where bark and wood
-  // are not told apart by bark_sigmas x noise_hu (bark missing or as dense as the wood); and
-  // wood_min_hu as that level.
+  // outer_wood_hu (the densest wood mode) and that bark, or midway to air where the bark is not
+  // lighter than the wood by bark_sigmas standard errors of its median (noise_hu over the square
+  // root of the rays); and wood_min_hu a quarter of the wood-bark step under that level.
   double outer_wood_hu = NAN;
   double noise_hu = 20.0;
   double bark_sigmas = 3.0;
