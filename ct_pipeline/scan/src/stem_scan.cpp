@@ -89,9 +89,11 @@ class JobQueue {
 // track that left the heart of the log) the pith follows the centre of the log's shape (the
 // heartwood border where there is one, else the outline), shifted by the eccentricity the rings
 // showed where resolved. Fills the records' diagnostics and the summary; `track` is updated.
-void fuse_pith_cues(StemScan& scan, const std::vector<double>& z,
-                    const std::vector<PithResult>& refined, std::vector<Vec2>& track,
-                    const StemScanOptions& options, const VolumeGeometry& g) {
+// `research(centres, which)` refines the slices `which` marks again around `centres`.
+template <typename Research>
+void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<PithResult> refined,
+                    std::vector<Vec2>& track, const StemScanOptions& options,
+                    const VolumeGeometry& g, Research research) {
   const int n = static_cast<int>(scan.slices.size());
   std::vector<PithResult> shape_raw(static_cast<size_t>(n));
   std::vector<double> radius(static_cast<size_t>(n), 0.0);
@@ -118,6 +120,32 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z,
     }
     return;
   }
+  const double pixel_mm = std::max(g.spacing_x, g.spacing_y);
+  // A ring pith far from the shape centre may be a lock onto a knot's rings, one ring off or onto
+  // noise, from a first track that drifted: the rings get a second search around the shape
+  // centre, and the stronger alignment stands.
+  if (!refined.empty()) {
+    std::vector<bool> which(static_cast<size_t>(n), false);
+    bool any = false;
+    for (int i = 0; i < n; ++i)
+      if (refined[static_cast<size_t>(i)].found &&
+          (track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)]).norm() > 2 * pixel_mm)
+        which[static_cast<size_t>(i)] = any = true;
+    if (any) {
+      const std::vector<PithResult> alt = research(shape, which);
+      bool changed = false;
+      for (int i = 0; i < n; ++i) {
+        const PithResult& a = alt[static_cast<size_t>(i)];
+        PithResult& r = refined[static_cast<size_t>(i)];
+        if (which[static_cast<size_t>(i)] && a.found && a.confidence > r.confidence)
+          r = a, changed = true;
+      }
+      if (changed) {
+        std::vector<Vec2> t = smooth_pith_track(z, refined, options.track);
+        if (!t.empty()) track = std::move(t);
+      }
+    }
+  }
   // Ring signal per slice: the refined slices' signal shares, a running median along z over the
   // refinement's averaging window, so one slice through a whorl does not flip the decision.
   std::vector<double> zr, sr, pr;
@@ -127,7 +155,6 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z,
       sr.push_back(refined[static_cast<size_t>(i)].confidence);
       pr.push_back(refined[static_cast<size_t>(i)].ring_period_mm);
     }
-  const double pixel_mm = std::max(g.spacing_x, g.spacing_y);
   const double half = std::max(options.refine.average_half_window_mm, 2.0 * g.slice_spacing());
   double rsum = 0;
   int rcount = 0;
@@ -154,9 +181,10 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z,
     if (rec.rings_resolved) offsets.push_back(d);
   }
   // The pith's offset from the shape centre changes slowly along a log: where the rings were
-  // resolved on a share of the scan, their median offset carries over to the rest.
+  // resolved on most of the scan, their median offset carries over to the rest (a few slices'
+  // rings, perhaps noise that lined up, do not move the whole shape track).
   Vec2 ecc{0, 0};
-  if (offsets.size() >= 3) {
+  if (offsets.size() >= 3 && 2 * offsets.size() >= static_cast<size_t>(n)) {
     std::vector<double> ox, oy;
     for (const Vec2& o : offsets) ox.push_back(o.x), oy.push_back(o.y);
     ecc = {median(ox), median(oy)};
@@ -170,7 +198,7 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z,
   for (int i = 0; i < n; ++i)
     if (resolved[static_cast<size_t>(i)])
       spread.push_back((track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)] - ecc).norm());
-  const double shape_error = offsets.size() >= 3 ? std::max(median(spread), g.spacing_x)
+  const double shape_error = ecc.norm() > 0 ? std::max(median(spread), g.spacing_x)
                                                  : std::max(0.1 * r_log, g.spacing_x);
   std::vector<PithResult> fused(static_cast<size_t>(n));
   std::vector<double> errors, signals;
@@ -436,7 +464,16 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     ++scan.pith_refine_passes;
     if (!again) break;
   }
-  fuse_pith_cues(scan, z, refined, track, options, g);
+  fuse_pith_cues(scan, z, refined, track, options, g,
+                 [&](const std::vector<Vec2>& centres, const std::vector<bool>& which) {
+                   PithRefineOptions wide = ro;
+                   wide.search_radius_mm = options.first_search_mm;  // as the first pass: a fair comparison
+                   const std::vector<std::vector<double>> outlines = outlines_around(centres);
+                   std::vector<PithResult> r = refine_pith_track(crops, z, centres, g, options.pith,
+                                                                 wide, &outlines, &which);
+                   for (const PithResult& q : r) scan.pith_refinements += q.found;
+                   return r;
+                 });
   scan.seconds_refining =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_tracked).count();
   for (int i = 0; i < n; ++i) {

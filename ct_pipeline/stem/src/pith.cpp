@@ -871,13 +871,16 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   // scores only the kScreenKeep best points on all rings.
   Vec2 best{0, 0};
   double bs = -1;
-  const int ns = static_cast<int>(search_mm / kRingGridMm);
+  // Rings are at least two pixels wide where they are resolved at all: a grid step of 0.6 pixel
+  // keeps the main peak (about half a ring width across) from being stepped over on fine scans.
+  const double grid_mm = std::min(kRingGridMm, 0.6 * std::max(sx, sy));
+  const int ns = static_cast<int>(search_mm / grid_mm);
   const int nb_screen = static_cast<int>((kScreenRingMm - kRingMinMm) / kRingBinMm) + 1;
   std::vector<std::pair<double, Vec2>> screened;
   for (int j = -ns; j <= ns; ++j)
     for (int i = -ns; i <= ns; ++i) {
       if (i * i + j * j > ns * ns) continue;
-      const Vec2 c{i * kRingGridMm, j * kRingGridMm};
+      const Vec2 c{i * grid_mm, j * grid_mm};
       if (screen) {
         screened.push_back({score(c, nullptr, std::max<size_t>(n_near, 1), nb_screen), c});
         continue;
@@ -927,7 +930,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     const Vec2 next{best.x + (arg % 3 - 1) * h, best.y + (arg / 3 - 1) * h};
     // Stay in the searched disc: a climb along a noisy ridge would reach the alignment one ring
     // off, outside the area the grid vouched for.
-    if (next.norm() > search_mm + kRingGridMm) break;
+    if (next.norm() > search_mm + grid_mm) break;
     best = next;
     bs = nbh[arg];
   }
