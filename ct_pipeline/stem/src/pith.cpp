@@ -96,6 +96,8 @@ constexpr double kWindowAboveSigmas = 4.0;
 // Nothing is less dense than air on any HU calibration: lower values are padding outside the
 // reconstruction circle.
 constexpr float kPaddingHu = -1500.f;
+// Least air-to-wood step, in robust spreads of the air class.
+constexpr double kMinStepSpreads = 5.0;
 
 // The ring-profile refinement's pixels, structure of arrays (see refine_pith_concentric).
 struct RingPixels {
@@ -267,9 +269,11 @@ std::pair<float, float> level_and_spread(std::vector<float>& v) {
   return {level, static_cast<float>(1.4826 * median_inplace(v))};
 }
 
-// Pixels of `img` to keep out of the ring evidence: farther than `cut` from `level`, the mask
-// grown by `grow` pixels (a knot's flanks are half as bright as its core, and the structure
-// tensor spreads them). 1 = masked.
+// Pixels of `img` to keep out of the ring evidence: within `grow` pixels of a cluster of pixels
+// farther than `cut` from `level` (a knot's flanks are half as bright as its core, and the
+// structure tensor spreads them), a cluster being more than kMaskShare of the box around a pixel
+// (isolated noise pixels beyond the cut are no knot). 1 = masked.
+constexpr float kMaskShare = 0.2f;
 Grid outlier_mask(const Grid& img, float level, float cut, int grow) {
   Grid m(img.w, img.h);
   bool any = false;
@@ -278,7 +282,9 @@ Grid outlier_mask(const Grid& img, float level, float cut, int grow) {
     m.v[k] = out ? 1.f : 0.f;
     any = any || out;
   }
-  if (any && grow > 0) box_filter(m, grow);
+  if (!any || grow <= 0) return m;
+  box_filter(m, grow);
+  for (float& v : m.v) v = v > kMaskShare ? 1.f : 0.f;
   return m;
 }
 
@@ -722,7 +728,8 @@ WoodLevels wood_levels(const Slice& s, const PithOptions& options) {
   std::vector<float> below, above;
   for (float q : v) (q < t ? below : above).push_back(q);
   if (below.empty() || above.empty()) return lv;
-  lv.air_hu = median_inplace(below);
+  const auto [air, air_spread] = level_and_spread(below);
+  lv.air_hu = air;
   const auto [wood, spread] = level_and_spread(above);
   lv.wood_hu = wood;
   lv.sigma_hu = spread;
@@ -731,7 +738,9 @@ WoodLevels wood_levels(const Slice& s, const PithOptions& options) {
   lv.max_hu = std::isfinite(options.wood_max_hu)
                   ? options.wood_max_hu
                   : lv.wood_hu + std::max(kWindowAbove * step, kWindowAboveSigmas * lv.sigma_hu);
-  lv.found = step > 0 && lv.max_hu > lv.min_hu;
+  // Two classes of one noisy level (air only) lie a couple of spreads apart; air and wood are
+  // hundreds of HU apart at any noise a log scan has.
+  lv.found = step > kMinStepSpreads * air_spread && lv.max_hu > lv.min_hu;
   return lv;
 }
 

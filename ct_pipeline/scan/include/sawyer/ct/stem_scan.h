@@ -53,7 +53,7 @@ struct StemScanOptions {
   // centre (the pith lies inside the heart: 1-5 % of the radius off the outline's centre in
   // most logs, 7 % in the real Gran_1 spruce; rings that line up farther off are a knot's, or
   // noise locked onto a ring).
-  double min_ring_signal = 0.45;
+  double min_ring_signal = 0.6;
   double max_shape_offset = 0.12;
   // ... and where the ring period the profile shows is at least this many pixels: narrower
   // rings are not resolved, and what lines up there is aliasing, knots or the heartwood step
