@@ -326,12 +326,6 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads) {
   for (const StemSliceRecord& rec : s.slices) {
     const Vec2 want = truth.stem.pith_at(rec.z);
     err.push_back((rec.pith - want).norm());
-    if (std::getenv("PITH_DEBUG"))
-      std::fprintf(stderr, "z %7.1f pith %6.2f shape %6.2f refined %6s raw %6s sig %.2f per %.2f cue %s exp %.2f\n",
-                   rec.z, (rec.pith - want).norm(), (rec.pith_shape - want).norm(),
-                   rec.pith_refined.found ? std::to_string((rec.pith_refined.pith_mm - want).norm()).substr(0, 6).c_str() : "-",
-                   rec.pith_raw.found ? std::to_string((rec.pith_raw.pith_mm - want).norm()).substr(0, 6).c_str() : "-",
-                   rec.ring_signal, rec.ring_period_mm, pith_cue_name(rec.pith_cue), rec.pith_expected_error_mm);
     auto add = [&](std::vector<double> rad, std::vector<bool> ok, auto truth_at, double& sum2,
                    long& count) {
       recentre_contour(rec.pith, want, rad, ok);

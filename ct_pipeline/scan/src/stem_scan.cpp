@@ -7,7 +7,6 @@
 #include <cmath>
 #include <condition_variable>
 #include <ctime>
-#include <cstdlib>
 #include <deque>
 #include <mutex>
 #include <thread>
@@ -102,7 +101,7 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     if (!rec.measured) continue;
     Vec2 c;
     bool ok = false;
-    if (rec.heartwood.present && !std::getenv("PITH_SHAPE_OUTLINE"))
+    if (rec.heartwood.present)
       ok = contour_centre(rec.centre, rec.heartwood.radius, rec.heartwood.valid, &c);
     if (!ok) ok = contour_centre(rec.centre, rec.contour.radius, rec.contour.valid, &c);
     if (!ok) continue;
@@ -483,7 +482,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
     rec.pith_outlier = outlier[static_cast<size_t>(i)];
     if (!rec.measured) continue;
     recentre_contour(rec.centre, rec.pith, rec.contour.radius, rec.contour.valid);
-    if (rec.heartwood.present && !std::getenv("PITH_SHAPE_OUTLINE"))
+    if (rec.heartwood.present)
       recentre_contour(rec.centre, rec.pith, rec.heartwood.radius, rec.heartwood.valid);
   }
 
