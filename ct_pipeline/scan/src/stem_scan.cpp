@@ -83,6 +83,176 @@ class JobQueue {
   bool closed_ = false;
 };
 
+// The pith from every cue (issue 20). The ring track (`track`, from `refined`) stands where the
+// rings were resolved; elsewhere (coarse pixels, faint rings, rot over the centre, or a ring
+// track that left the heart of the log) the pith follows the centre of the log's shape (the
+// heartwood border where there is one, else the outline), shifted by the eccentricity the rings
+// showed where resolved. Fills the records' diagnostics and the summary; `track` is updated.
+// `research(centres, which)` refines the slices `which` marks again around `centres`.
+template <typename Research>
+void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<PithResult> refined,
+                    std::vector<Vec2>& track, const StemScanOptions& options,
+                    const VolumeGeometry& g, Research research) {
+  const int n = static_cast<int>(scan.slices.size());
+  std::vector<PithResult> shape_raw(static_cast<size_t>(n));
+  std::vector<double> radius(static_cast<size_t>(n), 0.0);
+  for (int i = 0; i < n; ++i) {
+    const StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
+    if (!rec.measured) continue;
+    Vec2 c;
+    bool ok = false;
+    if (rec.heartwood.present)
+      ok = contour_centre(rec.centre, rec.heartwood.radius, rec.heartwood.valid, &c);
+    if (!ok) ok = contour_centre(rec.centre, rec.contour.radius, rec.contour.valid, &c);
+    if (!ok) continue;
+    shape_raw[static_cast<size_t>(i)] = {c, 1.0, true};
+    std::vector<double> r;
+    for (size_t k = 0; k < rec.contour.radius.size(); ++k)
+      if (rec.contour.valid[k]) r.push_back(rec.contour.radius[k]);
+    radius[static_cast<size_t>(i)] = median(r);
+  }
+  const std::vector<Vec2> shape = smooth_pith_track(z, shape_raw, options.track);
+  if (shape.empty()) {
+    for (StemSliceRecord& rec : scan.slices) {
+      rec.pith_cue = PithCue::rings;
+      rec.pith_expected_error_mm = 5.0 * g.spacing_x;  // nothing else to go by
+    }
+    return;
+  }
+  const double pixel_mm = std::max(g.spacing_x, g.spacing_y);
+  // A ring pith far from the shape centre may be a lock onto a knot's rings, one ring off or onto
+  // noise, from a first track that drifted: the rings get a second search around the shape
+  // centre, and the stronger alignment stands.
+  if (!refined.empty()) {
+    std::vector<bool> which(static_cast<size_t>(n), false);
+    bool any = false;
+    for (int i = 0; i < n; ++i)
+      if (refined[static_cast<size_t>(i)].found &&
+          (track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)]).norm() > 2 * pixel_mm)
+        which[static_cast<size_t>(i)] = any = true;
+    if (any) {
+      const std::vector<PithResult> alt = research(shape, which);
+      bool changed = false;
+      for (int i = 0; i < n; ++i) {
+        const PithResult& a = alt[static_cast<size_t>(i)];
+        PithResult& r = refined[static_cast<size_t>(i)];
+        if (which[static_cast<size_t>(i)] && a.found && a.confidence > r.confidence)
+          r = a, changed = true;
+      }
+      if (changed) {
+        std::vector<Vec2> t = smooth_pith_track(z, refined, options.track);
+        if (!t.empty()) track = std::move(t);
+      }
+    }
+  }
+  // Ring signal per slice: the refined slices' signal shares, a running median along z over the
+  // refinement's averaging window, so one slice through a whorl does not flip the decision.
+  std::vector<double> zr, sr, pr;
+  for (int i = 0; i < n; ++i)
+    if (!refined.empty() && refined[static_cast<size_t>(i)].found) {
+      zr.push_back(z[static_cast<size_t>(i)]);
+      sr.push_back(refined[static_cast<size_t>(i)].confidence);
+      pr.push_back(refined[static_cast<size_t>(i)].ring_period_mm);
+    }
+  const double half = std::max(options.refine.average_half_window_mm, 2.0 * g.slice_spacing());
+  double rsum = 0;
+  int rcount = 0;
+  for (double r : radius)
+    if (r > 0) rsum += r, ++rcount;
+  const double r_log = rcount ? rsum / rcount : 0.0;
+  std::vector<char> resolved(static_cast<size_t>(n), 0);
+  std::vector<Vec2> offsets;
+  for (int i = 0; i < n; ++i) {
+    StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
+    std::vector<double> near, period;
+    for (size_t k = 0; k < zr.size(); ++k)
+      if (std::abs(zr[k] - z[static_cast<size_t>(i)]) <= half)
+        near.push_back(sr[k]), period.push_back(pr[k]);
+    rec.ring_signal = median(near);
+    rec.ring_period_mm = median(period);
+    rec.pith_shape = shape[static_cast<size_t>(i)];
+    const double R = radius[static_cast<size_t>(i)] > 0 ? radius[static_cast<size_t>(i)] : r_log;
+    const Vec2 d = track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)];
+    rec.rings_resolved = rec.ring_signal >= options.min_ring_signal &&
+                         rec.ring_period_mm >= options.min_ring_period_px * pixel_mm &&
+                         d.norm() <= options.max_shape_offset * R;
+    resolved[static_cast<size_t>(i)] = rec.rings_resolved;
+    if (rec.rings_resolved) offsets.push_back(d);
+  }
+  // The pith's offset from the shape centre changes slowly along a log: where the rings were
+  // resolved on most of the scan, their median offset carries over to the rest (a few slices'
+  // rings, perhaps noise that lined up, do not move the whole shape track).
+  Vec2 ecc{0, 0};
+  if (offsets.size() >= 3 && 2 * offsets.size() >= static_cast<size_t>(n)) {
+    std::vector<double> ox, oy;
+    for (const Vec2& o : offsets) ox.push_back(o.x), oy.push_back(o.y);
+    ecc = {median(ox), median(oy)};
+  }
+  PithSummary& sum = scan.pith_summary;
+  sum.eccentricity_mm = ecc.norm();
+  // Spread of the ring pith about the shifted shape centre where both are known: the shape
+  // cue's error on this log; without resolved rings, a tenth of the radius (the eccentricity
+  // of most logs).
+  std::vector<double> spread;
+  for (int i = 0; i < n; ++i)
+    if (resolved[static_cast<size_t>(i)])
+      spread.push_back((track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)] - ecc).norm());
+  const double shape_error = ecc.norm() > 0 ? std::max(median(spread), g.spacing_x)
+                                                 : std::max(0.1 * r_log, g.spacing_x);
+  std::vector<PithResult> fused(static_cast<size_t>(n));
+  std::vector<double> errors, signals;
+  int shape_slices = 0, resolved_slices = 0, run_from = -1, best_from = -1, best_to = -1;
+  for (int i = 0; i <= n; ++i) {
+    const bool use_shape = i < n && !resolved[static_cast<size_t>(i)];
+    if (use_shape && run_from < 0) run_from = i;
+    if (!use_shape && run_from >= 0) {
+      if (best_from < 0 || i - 1 - run_from > best_to - best_from) best_from = run_from, best_to = i - 1;
+      run_from = -1;
+    }
+    if (i == n) break;
+    StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
+    PithResult& f = fused[static_cast<size_t>(i)];
+    f.found = true;
+    if (use_shape) {
+      f.pith_mm = shape[static_cast<size_t>(i)] + ecc;
+      f.confidence = 0.5;
+      rec.pith_cue = PithCue::shape;
+      rec.pith_expected_error_mm = shape_error;
+      ++shape_slices;
+    } else {
+      f.pith_mm = track[static_cast<size_t>(i)];
+      f.confidence = 1.0;
+      rec.pith_cue = PithCue::rings;
+      // A few tenths of a pixel where the rings stand well out of the noise, growing as they
+      // sink into it.
+      rec.pith_expected_error_mm = 0.25 * g.spacing_x / std::max(rec.ring_signal, 0.05);
+      ++resolved_slices;
+    }
+    rec.pith_confidence =
+        std::clamp(rec.pith_cue == PithCue::rings ? rec.ring_signal : 0.5 * g.spacing_x / shape_error,
+                   0.0, 1.0);
+    errors.push_back(rec.pith_expected_error_mm);
+    signals.push_back(rec.ring_signal);
+  }
+  if (shape_slices > 0) {
+    // Both cues in one scan: one smooth track through them (the shape cue's slices weigh less).
+    const std::vector<Vec2> t = resolved_slices > 0 ? smooth_pith_track(z, fused, options.track)
+                                                    : std::vector<Vec2>{};
+    for (int i = 0; i < n; ++i) {
+      if (!resolved[static_cast<size_t>(i)] || t.empty())
+        track[static_cast<size_t>(i)] = t.empty() ? fused[static_cast<size_t>(i)].pith_mm
+                                                  : t[static_cast<size_t>(i)];
+    }
+  }
+  sum.rings_resolved_share = n ? static_cast<double>(resolved_slices) / n : 0.0;
+  sum.shape_share = n ? static_cast<double>(shape_slices) / n : 0.0;
+  sum.ring_signal = median(signals);
+  sum.median_expected_error_mm = median(errors);
+  sum.max_expected_error_mm = errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end());
+  if (best_from >= 0)
+    sum.uncertain_from_z = z[static_cast<size_t>(best_from)], sum.uncertain_to_z = z[static_cast<size_t>(best_to)];
+}
+
 }  // namespace
 
 void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& radius,
@@ -162,8 +332,8 @@ void apply_levels(const ScanLevels& l, double heartwood_sigmas, PithOptions* p, 
   if (!l.valid) return;
   const double sigma = std::max(1.0, l.noise_hu());
   if (p) {
-    p->wood_hu = l.log_hu;
-    p->max_wood_hu = l.dense_hu;
+    p->wood_min_hu = l.log_hu;
+    p->wood_max_hu = l.dense_hu;
   }
   if (c) {
     c->wood_hu = l.log_hu;
@@ -353,6 +523,16 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
     ++scan.pith_refine_passes;
     if (!again) break;
   }
+  fuse_pith_cues(scan, z, refined, track, options, g,
+                 [&](const std::vector<Vec2>& centres, const std::vector<bool>& which) {
+                   PithRefineOptions wide = ro;
+                   wide.search_radius_mm = options.first_search_mm;  // as the first pass: a fair comparison
+                   const std::vector<std::vector<double>> outlines = outlines_around(centres);
+                   std::vector<PithResult> r = refine_pith_track(crops, z, centres, g, options.pith,
+                                                                 wide, &outlines, &which);
+                   for (const PithResult& q : r) scan.pith_refinements += q.found;
+                   return r;
+                 });
   scan.seconds_refining =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_tracked).count();
   for (int i = 0; i < n; ++i) {

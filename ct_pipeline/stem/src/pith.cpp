@@ -1,6 +1,6 @@
 // Pith of one CT slice (issue 4): gradient-orientation voting, refined at full resolution.
 //
-// 1. Extent (no prior): 4 x 4 block means, wood = wood_hu < HU < max_wood_hu (the bed's belt and
+// 1. Extent (no prior): 4 x 4 block means, wood = wood_hu < HU < kMaxWoodHu (the bed's belt and
 //    rails, clutter steel are denser than any wood), eroded once, largest 4-connected component.
 //    No component of a plausible size: found = false.
 // 2. Vote: the local ring orientation comes from the smoothed structure tensor of the
@@ -30,6 +30,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "sawyer/core/stats.h"
@@ -48,7 +49,9 @@ constexpr double kRingMinMm = 1.5;
 constexpr double kRingMaxMm = kRingProfileMaxMm;
 constexpr double kRingBinMm = 0.4;
 constexpr double kRingSmoothMm = 1.6;
-constexpr float kRingOutlierHu = 120.f;
+// Pixels farther than kRingOutlierSigmas robust spreads (noise and ring signal of the disc
+// together) from the wood level are left out: knots, cracks, the heartwood step.
+constexpr double kRingOutlierSigmas = 3.5;
 constexpr double kRingGridMm = 0.5;
 // Searches at least kScreenMinSearchMm wide screen their grid on the rings within
 // kScreenRingMm of each grid point and score the kScreenKeep best points on all rings.
@@ -80,6 +83,21 @@ constexpr int kRefineTensorRadius = 2;
 // mm with the pass, 0.9 mm without).
 constexpr int kPrePasses = 1;
 constexpr double kMaxPreSigmaMm = 0.6;
+// Knots are bright radial tubes far above the local wood level (cracks and rot far below): their
+// flanks are the strongest oriented structure near the pith and would capture the vote. Pixels
+// farther than kVoteOutlierSigmas robust spreads from the box's wood level, the mask grown by the
+// structure tensor's reach, do not vote as rings.
+constexpr double kVoteOutlierSigmas = 3.0;
+// Wood window (wood_levels): the share of the air-wood step below the wood level that still
+// counts as wood (bark, dry wood), and above it (knots, latewood), or this many spreads.
+constexpr double kWindowBelow = 0.7;
+constexpr double kWindowAbove = 0.2;
+constexpr double kWindowAboveSigmas = 4.0;
+// Nothing is less dense than air on any HU calibration: lower values are padding outside the
+// reconstruction circle.
+constexpr float kPaddingHu = -1500.f;
+// Least air-to-wood step, in robust spreads of the air class.
+constexpr double kMinStepSpreads = 5.0;
 
 // The ring-profile refinement's pixels, structure of arrays (see refine_pith_concentric).
 struct RingPixels {
@@ -243,6 +261,45 @@ float median_positive(std::vector<float> v) {
   return *mid;
 }
 
+// Median and robust spread (1.4826 MAD) of `v` (reordered); {NaN, 0} when empty.
+std::pair<float, float> level_and_spread(std::vector<float>& v) {
+  if (v.empty()) return {NAN, 0.f};
+  const float level = static_cast<float>(median_inplace(v));
+  for (float& x : v) x = std::abs(x - level);
+  return {level, static_cast<float>(1.4826 * median_inplace(v))};
+}
+
+// Pixels of `img` to keep out of the ring evidence: within `grow` pixels of a cluster of pixels
+// farther than `cut` from `level` (a knot's flanks are half as bright as its core, and the
+// structure tensor spreads them), a cluster being more than kMaskShare of the box around a pixel
+// (isolated noise pixels beyond the cut are no knot). 1 = masked.
+constexpr float kMaskShare = 0.2f;
+Grid outlier_mask(const Grid& img, float level, float cut, int grow) {
+  Grid m(img.w, img.h);
+  bool any = false;
+  for (size_t k = 0; k < img.v.size(); ++k) {
+    const bool out = !(std::abs(img.v[k] - level) <= cut);
+    m.v[k] = out ? 1.f : 0.f;
+    any = any || out;
+  }
+  if (!any || grow <= 0) return m;
+  box_filter(m, grow);
+  for (float& v : m.v) v = v > kMaskShare ? 1.f : 0.f;
+  return m;
+}
+
+// The wood level and spread of a box's voters: median and MAD of the pixels `votes` admits
+// (every `stride`-th) that lie in the wood window.
+template <typename VotePred>
+std::pair<float, float> box_level(const Grid& img, int x0, int y0, int stride, const WoodLevels& lv,
+                                  VotePred votes) {
+  std::vector<float> v;
+  for (int j = 3; j + 3 < img.h; j += stride)
+    for (int i = 3; i + 3 < img.w; i += stride)
+      if (votes(x0 + i, y0 + j) && lv.contains(img.at(i, j))) v.push_back(img.at(i, j));
+  return level_and_spread(v);
+}
+
 struct Extent {
   bool found = false;
   Vec2 centre_mm;        // centroid of the wood component
@@ -253,13 +310,13 @@ struct Extent {
   int bx0 = 0, by0 = 0, bx1 = 0, by1 = 0;  // bounding box, coarse cells, inclusive
 };
 
-Extent find_extent(const Slice& s, const VolumeGeometry& g, double wood_hu, double max_wood_hu) {
+Extent find_extent(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv) {
   Extent e;
   const int cw = s.width / kCoarse, ch = s.height / kCoarse;
   if (cw < 3 || ch < 3) return e;
   const Grid m = block_mean(s, kCoarse, 0, 0, cw, ch);
   std::vector<std::uint8_t> wood(static_cast<size_t>(cw) * ch, 0), er(wood.size(), 0);
-  for (size_t k = 0; k < wood.size(); ++k) wood[k] = m.v[k] > wood_hu && m.v[k] < max_wood_hu;
+  for (size_t k = 0; k < wood.size(); ++k) wood[k] = lv.contains(m.v[k]);
   auto erode = [&](const std::vector<std::uint8_t>& in, std::vector<std::uint8_t>& out) {
     std::fill(out.begin(), out.end(), 0);
     for (int y = 1; y + 1 < ch; ++y)
@@ -329,12 +386,20 @@ Extent find_extent(const Slice& s, const VolumeGeometry& g, double wood_hu, doub
 // sharpness (1 - mean / peak); `others`, when given, gets up to `n_others` further local peaks
 // (cell centres, mm), strongest first, each at least `apart_mm` from the stronger ones.
 template <typename VotePred>
-Vec2 vote(const Slice& s, const VolumeGeometry& g, int x0, int y0, int w, int h, Vec2 lo, Vec2 hi,
-          int cell, int stride, int tensor_radius, VotePred votes, double* sharpness,
-          std::vector<Vec2>* others = nullptr, int n_others = 0, double apart_mm = 0) {
+Vec2 vote(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv, int x0, int y0, int w,
+          int h, Vec2 lo, Vec2 hi, int cell, int stride, int tensor_radius, VotePred votes_in,
+          double* sharpness, std::vector<Vec2>* others = nullptr, int n_others = 0,
+          double apart_mm = 0) {
   const Grid img = block_mean(s, 1, x0, y0, w, h);
   const double sx = g.spacing_x, sy = g.spacing_y;
   const Orientation o = orientation_field(img, tensor_radius, sx, sy);
+  // Knots (far above the box's wood level) and cracks (far below) never vote as rings.
+  const auto [level, spread] = box_level(img, x0, y0, stride, lv, votes_in);
+  const Grid mask = std::isnan(level)
+                        ? Grid(w, h)
+                        : outlier_mask(img, level, static_cast<float>(kVoteOutlierSigmas) * spread,
+                                       tensor_radius + 1);
+  auto votes = [&](int x, int y) { return mask.at(x - x0, y - y0) == 0.f && votes_in(x, y); };
   std::vector<float> an;
   an.reserve(o.aniso.v.size() / static_cast<size_t>(stride * stride) + 1);
   for (int j = 3; j + 3 < h; j += stride)
@@ -418,7 +483,7 @@ Vec2 vote(const Slice& s, const VolumeGeometry& g, int x0, int y0, int w, int h,
 
 // Full-resolution refinement around `c` (mm). Returns the refined pith; *inlier is the weighted
 // fraction of normals that point at it.
-Vec2 refine(const Slice& s, const VolumeGeometry& g, Vec2 c, double* inlier) {
+Vec2 refine(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv, Vec2 c, double* inlier) {
   const double sx = g.spacing_x, sy = g.spacing_y;
   const int rx = static_cast<int>(std::ceil(kRefineRadiusMm / sx)) + 4;
   const int ry = static_cast<int>(std::ceil(kRefineRadiusMm / sy)) + 4;
@@ -432,6 +497,11 @@ Vec2 refine(const Slice& s, const VolumeGeometry& g, Vec2 c, double* inlier) {
   for (int y = y0; y <= y1; ++y)
     for (int x = x0; x <= x1; ++x) img.at(x - x0, y - y0) = s.at(x, y);
   const Orientation o = orientation_field(img, kRefineTensorRadius, sx, sy);
+  const auto [level, spread] = box_level(img, x0, y0, 1, lv, [](int, int) { return true; });
+  const Grid mask = std::isnan(level)
+                        ? Grid(img.w, img.h)
+                        : outlier_mask(img, level, static_cast<float>(kVoteOutlierSigmas) * spread,
+                                       kRefineTensorRadius + 1);
   struct Px {
     double x, y, nx, ny, aniso, w;
   };
@@ -441,7 +511,7 @@ Vec2 refine(const Slice& s, const VolumeGeometry& g, Vec2 c, double* inlier) {
   for (int j = 3; j + 3 < img.h; ++j)
     for (int i = 3; i + 3 < img.w; ++i) {
       const float a = o.aniso.at(i, j);
-      if (!(a > 0.f)) continue;
+      if (!(a > 0.f) || mask.at(i, j) != 0.f) continue;
       px.push_back({(x0 + i) * sx, (y0 + j) * sy, o.nx.at(i, j), o.ny.at(i, j), a,
                     weight_of(o.coh.at(i, j), a)});
       an.push_back(a);
@@ -488,7 +558,7 @@ Vec2 refine(const Slice& s, const VolumeGeometry& g, Vec2 c, double* inlier) {
 
 // Fraction of half-resolution wood pixels in a disc (mm) of the slice.
 double wood_fraction(const Slice& s, const VolumeGeometry& g, Vec2 c, double radius,
-                     double wood_hu, double max_wood_hu) {
+                     const WoodLevels& lv) {
   const int cx = static_cast<int>(std::lround(c.x / g.spacing_x));
   const int cy = static_cast<int>(std::lround(c.y / g.spacing_y));
   const int rx = static_cast<int>(radius / g.spacing_x),
@@ -501,7 +571,7 @@ double wood_fraction(const Slice& s, const VolumeGeometry& g, Vec2 c, double rad
       ++n;
       if (x < 0 || y < 0 || x >= s.width || y >= s.height) continue;
       const float v = s.at(x, y);
-      in += v > wood_hu && v < max_wood_hu;
+      in += lv.contains(v);
     }
   return n ? static_cast<double>(in) / n : 0.0;
 }
@@ -516,7 +586,8 @@ PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const Pith
                              Vec2 prior) {
   PithResult r;
   const double sr = opt.prior_radius_mm;
-  if (wood_fraction(s, g, prior, sr, opt.wood_hu, opt.max_wood_hu) < 0.6) return r;
+  const WoodLevels lv = wood_levels(s, opt);
+  if (!lv.found || wood_fraction(s, g, prior, sr, lv) < 0.6) return r;
   // Voters: every other pixel within sr + 20 mm of the prior; accumulator: +- sr, 2-pixel cells.
   const double vr = sr + 20.0;
   const int x0 = std::max(0, static_cast<int>((prior.x - vr) / g.spacing_x));
@@ -530,10 +601,10 @@ PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const Pith
     return dx * dx + dy * dy <= vr2;
   };
   double sharp = 0;
-  const Vec2 coarse = vote(s, g, x0, y0, x1 - x0, y1 - y0, prior - Vec2{sr, sr},
+  const Vec2 coarse = vote(s, g, lv, x0, y0, x1 - x0, y1 - y0, prior - Vec2{sr, sr},
                            prior + Vec2{sr, sr}, 2, 2, kPriorTensorRadius, votes, &sharp);
   double inlier = 0;
-  r.pith_mm = refine(s, g, coarse, &inlier);
+  r.pith_mm = refine(s, g, lv, coarse, &inlier);
   r.confidence = confidence_from(inlier, sharp);
   r.found = true;
   return r;
@@ -542,7 +613,8 @@ PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const Pith
 std::vector<PithCandidate> candidates_without_prior(const Slice& s, const VolumeGeometry& g,
                                                    const PithOptions& opt) {
   std::vector<PithCandidate> out;
-  const Extent e = find_extent(s, g, opt.wood_hu, opt.max_wood_hu);
+  const WoodLevels lv = wood_levels(s, opt);
+  const Extent e = lv.found ? find_extent(s, g, lv) : Extent{};
   if (!e.found) return out;
   // The pith lies well inside the section: search +- 0.6 R around the centroid, with votes from
   // the inner 0.8 R (inner rings are rounder), every third pixel, into 4-pixel cells.
@@ -563,7 +635,7 @@ std::vector<PithCandidate> candidates_without_prior(const Slice& s, const Volume
   double sharp = 0;
   std::vector<Vec2> others;
   const Vec2 coarse =
-      vote(s, g, x0, y0, x1 - x0, y1 - y0, c - Vec2{0.6 * R, 0.6 * R}, c + Vec2{0.6 * R, 0.6 * R},
+      vote(s, g, lv, x0, y0, x1 - x0, y1 - y0, c - Vec2{0.6 * R, 0.6 * R}, c + Vec2{0.6 * R, 0.6 * R},
            4, stride, kCoarseTensorRadius, votes, &sharp, &others, kAcquireCandidates - 1,
            kAcquireApartMm);
   std::vector<Vec2> seeds{coarse};
@@ -571,12 +643,13 @@ std::vector<PithCandidate> candidates_without_prior(const Slice& s, const Volume
   seeds.push_back(c);
   PithOptions o2 = opt;
   o2.prior_radius_mm = 8.0;
+  o2.wood_min_hu = lv.min_hu, o2.wood_max_hu = lv.max_hu;  // the whole slice's, once
   for (size_t k = 0; k < seeds.size(); ++k) {
     PithResult q = detect_with_prior(s, g, o2, seeds[k]);
     if (!q.found) {
       if (k > 0) continue;
       double inlier = 0;
-      q.pith_mm = refine(s, g, seeds[k], &inlier);
+      q.pith_mm = refine(s, g, lv, seeds[k], &inlier);
       q.confidence = confidence_from(inlier, sharp);
       q.found = true;
     }
@@ -612,6 +685,65 @@ PithResult detect_without_prior(const Slice& s, const VolumeGeometry& g, const P
 
 }  // namespace
 
+WoodLevels wood_levels(const Slice& s, const PithOptions& options) {
+  WoodLevels lv;
+  if (!slice_holds_pixels(s)) return lv;
+  const bool given = std::isfinite(options.wood_min_hu) && std::isfinite(options.wood_max_hu);
+  if (given) {
+    lv.found = options.wood_max_hu > options.wood_min_hu;
+    lv.min_hu = options.wood_min_hu, lv.max_hu = options.wood_max_hu;
+    lv.air_hu = lv.min_hu, lv.wood_hu = 0.5 * (lv.min_hu + lv.max_hu);
+    return lv;
+  }
+  // Every third pixel each way: plenty for two levels, a few hundredths of the slice's time.
+  std::vector<float> v;
+  v.reserve(static_cast<size_t>(s.width / 3 + 1) * static_cast<size_t>(s.height / 3 + 1));
+  float lo = INFINITY, hi = -INFINITY;
+  for (int y = 1; y < s.height; y += 3)
+    for (int x = 1; x < s.width; x += 3) {
+      const float q = s.at(x, y);
+      if (!(q > kPaddingHu)) continue;
+      v.push_back(q);
+      lo = std::min(lo, q), hi = std::max(hi, q);
+    }
+  if (v.size() < 64 || !(hi > lo)) return lv;
+  // Otsu's threshold on a 256-bin histogram.
+  constexpr int kBins = 256;
+  std::array<double, kBins> hist{};
+  const double scale = (kBins - 1) / static_cast<double>(hi - lo);
+  for (float q : v) hist[static_cast<size_t>((q - lo) * scale)] += 1.0;
+  double total = 0, sum_all = 0;
+  for (int b = 0; b < kBins; ++b) total += hist[b], sum_all += b * hist[b];
+  double w0 = 0, s0 = 0, best = -1;
+  int split = 0;
+  for (int b = 0; b + 1 < kBins; ++b) {
+    w0 += hist[b], s0 += b * hist[b];
+    const double w1 = total - w0;
+    if (w0 <= 0 || w1 <= 0) continue;
+    const double m0 = s0 / w0, m1 = (sum_all - s0) / w1;
+    const double between = w0 * w1 * (m0 - m1) * (m0 - m1);
+    if (between > best) best = between, split = b;
+  }
+  const float t = lo + static_cast<float>((split + 1) / scale);
+  std::vector<float> below, above;
+  for (float q : v) (q < t ? below : above).push_back(q);
+  if (below.empty() || above.empty()) return lv;
+  const auto [air, air_spread] = level_and_spread(below);
+  lv.air_hu = air;
+  const auto [wood, spread] = level_and_spread(above);
+  lv.wood_hu = wood;
+  lv.sigma_hu = spread;
+  const double step = lv.wood_hu - lv.air_hu;
+  lv.min_hu = std::isfinite(options.wood_min_hu) ? options.wood_min_hu : lv.wood_hu - kWindowBelow * step;
+  lv.max_hu = std::isfinite(options.wood_max_hu)
+                  ? options.wood_max_hu
+                  : lv.wood_hu + std::max(kWindowAbove * step, kWindowAboveSigmas * lv.sigma_hu);
+  // Two classes of one noisy level (air only) lie a couple of spreads apart; air and wood are
+  // hundreds of HU apart at any noise a log scan has.
+  lv.found = step > kMinStepSpreads * air_spread && lv.max_hu > lv.min_hu;
+  return lv;
+}
+
 PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 start,
                                   double search_mm, const std::vector<double>* outline,
                                   double ring_max_mm) {
@@ -641,7 +773,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
       const double d2 = dx * dx + dy * dy;
       if (d2 > reach * reach) continue;
       const float v = s.at(x, y);
-      if (!(v > -900.f)) continue;  // air (a crack, a shake): no ring there
+      if (!(v > kPaddingHu)) continue;  // padding; air (a crack) goes with the outliers below
       const double d = std::sqrt(d2);
       double k = 1.0, inv_r = 0.0;
       if (na) {
@@ -657,10 +789,12 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     }
   if (px.size() < 100) return res;
   // Knots, the heartwood border and cracks are far from the wood level: leave them out.
-  const float level = static_cast<float>(median_inplace(vals));
+  const auto [level, spread] = level_and_spread(vals);
+  const float cut = static_cast<float>(kRingOutlierSigmas) * spread;
   px.erase(std::remove_if(px.begin(), px.end(),
-                          [&](const Px& p) { return std::abs(p.v - level) > kRingOutlierHu; }),
+                          [&](const Px& p) { return !(std::abs(p.v - level) <= cut); }),
            px.end());
+  if (px.size() < 100) return res;
   // A wide search screens its grid on the pixels near the start alone: those first.
   const bool screen = search_mm >= kScreenMinSearchMm && ring_max > kScreenRingMm + 4.0;
   const float screen_reach = static_cast<float>(kScreenRingMm + search_mm);
@@ -746,13 +880,16 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   // scores only the kScreenKeep best points on all rings.
   Vec2 best{0, 0};
   double bs = -1;
-  const int ns = static_cast<int>(search_mm / kRingGridMm);
+  // Rings are at least two pixels wide where they are resolved at all: a grid step of 0.6 pixel
+  // keeps the main peak (about half a ring width across) from being stepped over on fine scans.
+  const double grid_mm = std::min(kRingGridMm, 0.6 * std::max(sx, sy));
+  const int ns = static_cast<int>(search_mm / grid_mm);
   const int nb_screen = static_cast<int>((kScreenRingMm - kRingMinMm) / kRingBinMm) + 1;
   std::vector<std::pair<double, Vec2>> screened;
   for (int j = -ns; j <= ns; ++j)
     for (int i = -ns; i <= ns; ++i) {
       if (i * i + j * j > ns * ns) continue;
-      const Vec2 c{i * kRingGridMm, j * kRingGridMm};
+      const Vec2 c{i * grid_mm, j * grid_mm};
       if (screen) {
         screened.push_back({score(c, nullptr, std::max<size_t>(n_near, 1), nb_screen), c});
         continue;
@@ -802,7 +939,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     const Vec2 next{best.x + (arg % 3 - 1) * h, best.y + (arg / 3 - 1) * h};
     // Stay in the searched disc: a climb along a noisy ridge would reach the alignment one ring
     // off, outside the area the grid vouched for.
-    if (next.norm() > search_mm + kRingGridMm) break;
+    if (next.norm() > search_mm + grid_mm) break;
     best = next;
     bs = nbh[arg];
   }
@@ -813,11 +950,37 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   best = {best.x + h * vertex(nbh[3], nbh[4], nbh[5]), best.y + h * vertex(nbh[1], nbh[4], nbh[7])};
   double noise = 0;
   bs = score(best, &noise);
+  // Ring period: twice the profile's length over its sign changes (the slow trend removed).
+  {
+    int crossings = 0;
+    double prev = 0;
+    for (int b = 0; b < nb_all; ++b) {
+      double a = 0;
+      int n = 0;
+      for (int j = std::max(0, b - lh); j <= std::min(nb_all - 1, b + lh); ++j) a += m[j], ++n;
+      const double d = m[b] - a / n;
+      if (d != 0 && prev != 0 && (d > 0) != (prev > 0)) ++crossings;
+      if (d != 0) prev = d;
+    }
+    res.ring_period_mm = crossings > 0 ? 2.0 * nb_all * kRingBinMm / crossings : 0.0;
+  }
   res.found = true;
   res.pith_mm = start + best;
   // Signal share of the profile energy: near 0 for noise, near 1 for clear rings.
   res.confidence = bs > 0 ? std::clamp((bs - noise) / bs, 0.0, 1.0) : 0.0;
   return res;
+}
+
+bool log_section(const Slice& slice, const VolumeGeometry& geometry, const PithOptions& options,
+                 Vec2* centre_mm, double* radius_mm) {
+  if (!slice_holds_pixels(slice)) return false;
+  const WoodLevels lv = wood_levels(slice, options);
+  if (!lv.found) return false;
+  const Extent e = find_extent(slice, geometry, lv);
+  if (!e.found) return false;
+  *centre_mm = e.centre_mm;
+  *radius_mm = e.radius_mm;
+  return true;
 }
 
 std::vector<PithCandidate> pith_candidates(const Slice& slice, const VolumeGeometry& geometry,

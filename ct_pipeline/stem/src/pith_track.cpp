@@ -40,13 +40,11 @@ constexpr int kMaxAcquisitions = 12;
 constexpr double kMaxAreaChange = 0.25;
 
 
-std::int64_t count_wood(const Slice& s, double wood_hu, double max_wood_hu) {
+std::int64_t count_wood(const Slice& s, const WoodLevels& lv) {
   std::int64_t n = 0;
+  if (!lv.found) return n;
   for (int y = 0; y < s.height; y += 4)
-    for (int x = 0; x < s.width; x += 4) {
-      const float v = s.at(x, y);
-      n += v > wood_hu && v < max_wood_hu;
-    }
+    for (int x = 0; x < s.width; x += 4) n += lv.contains(s.at(x, y));
   return n;
 }
 
@@ -54,9 +52,11 @@ std::int64_t count_wood(const Slice& s, double wood_hu, double max_wood_hu) {
 // voters 20 mm beyond and the tensor margins, plus room for the first track's error.
 constexpr double kCropHalfMm = 45.0;
 
-SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_t wood) {
+SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_t wood,
+                    const WoodLevels& lv) {
   SliceCrop k;
   k.wood_cells = wood;
+  k.wood_min_hu = lv.min_hu, k.wood_max_hu = lv.max_hu;
   const int hx = static_cast<int>(kCropHalfMm / g.spacing_x);
   const int hy = static_cast<int>(kCropHalfMm / g.spacing_y);
   const int cx = static_cast<int>(std::lround(c.x / g.spacing_x));
@@ -74,15 +74,20 @@ SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_
 }
 
 // Knots, cracks and the heartwood border are not annual rings: before averaging, a slice's pixels
-// farther than kOutlierHu from its wood level near the pith are left out (knots in dry heartwood
-// are 300-500 HU above it, cracks and the sapwood step as far), so a whorl blurred along z does
-// not leak into the rings. Level: median of the wood pixels (between the options' air/log
-// threshold and the bed's, from the scan's levels) within kLevelRadiusMm of the pith.
-constexpr float kOutlierHu = 150.f;
+// farther than kOutlierSigmas robust spreads (noise and ring signal) from its wood level near the
+// pith are left out (knots in dry heartwood are 300-500 HU above it, cracks and the sapwood step
+// as far), so a whorl blurred along z does not leak into the rings. Level and spread: median and
+// MAD of the wood pixels within kLevelRadiusMm of the pith.
+constexpr float kOutlierSigmas = 4.f;
 constexpr double kLevelRadiusMm = 15.0;
 
-float wood_level(const float* img, int w, int h, double cx, double cy, double rx, double ry,
-                 const PithOptions& o) {
+struct Level {
+  float level = NAN;
+  float cut = 0;  // pixels farther than this from `level` are left out
+};
+
+Level wood_level(const float* img, int w, int h, double cx, double cy, double rx, double ry,
+                 double wood_min_hu, double wood_max_hu) {
   std::vector<float> v;
   const int x0 = std::max(0, static_cast<int>(cx - rx)), x1 = std::min(w - 1, static_cast<int>(cx + rx) + 1);
   const int y0 = std::max(0, static_cast<int>(cy - ry)), y1 = std::min(h - 1, static_cast<int>(cy + ry) + 1);
@@ -91,15 +96,20 @@ float wood_level(const float* img, int w, int h, double cx, double cy, double rx
       const double dx = (x - cx) / rx, dy = (y - cy) / ry;
       if (dx * dx + dy * dy > 1) continue;
       const float q = img[static_cast<size_t>(y) * w + x];
-      if (q > o.wood_hu && q < o.max_wood_hu) v.push_back(q);
+      if (q > wood_min_hu && q < wood_max_hu) v.push_back(q);
     }
-  return v.empty() ? NAN : static_cast<float>(median_inplace(v));
+  if (v.size() < 8) return {};
+  Level l;
+  l.level = static_cast<float>(median_inplace(v));
+  for (float& q : v) q = std::abs(q - l.level);
+  l.cut = kOutlierSigmas * 1.4826f * static_cast<float>(median_inplace(v));
+  return l;
 }
 
 // Adds the in-level pixels of src[xa, xb) to sum and count.
-inline void add_row(const float* src, float level, int xa, int xb, float* sum, float* cnt) {
+inline void add_row(const float* src, Level level, int xa, int xb, float* sum, float* cnt) {
   for (int x = xa; x < xb; ++x) {
-    const bool in = std::abs(src[x] - level) <= kOutlierHu;
+    const bool in = std::abs(src[x] - level.level) <= level.cut;
     sum[x] += in ? src[x] : 0.f;
     cnt[x] += in ? 1.f : 0.f;
   }
@@ -121,8 +131,10 @@ PithTracker::PithTracker(const VolumeGeometry& geometry, const PithOptions& opti
 }
 
 std::vector<TrackedSlice> PithTracker::push(Slice slice) {
-  const std::int64_t wood = count_wood(slice, options_.wood_hu, options_.max_wood_hu);
+  const WoodLevels lv = wood_levels(slice, options_);
+  const std::int64_t wood = count_wood(slice, lv);
   Held h;
+  h.levels = lv;
   h.index = pushed_++;
   h.slice = std::move(slice);
   h.wood_cells = wood;
@@ -198,11 +210,12 @@ Slice PithTracker::averaged(int centre, const Vec2* box_centre, Vec2* origin) co
   const double pcx = box_centre->x / geometry_.spacing_x, pcy = box_centre->y / geometry_.spacing_y;
   const double lrx = kLevelRadiusMm / geometry_.spacing_x, lry = kLevelRadiusMm / geometry_.spacing_y;
   members.push_back(&c.slice);
-  std::vector<float> level;
+  std::vector<Level> level;
   for (const Slice* m : members)
-    level.push_back(wood_level(m->hu.data(), m->width, m->height, pcx, pcy, lrx, lry, options_));
-  const float centre_level = level.back();
-  if (std::isnan(centre_level)) {
+    level.push_back(wood_level(m->hu.data(), m->width, m->height, pcx, pcy, lrx, lry,
+                               c.levels.min_hu, c.levels.max_hu));
+  const float centre_level = level.back().level;
+  if (std::isnan(centre_level) || !c.levels.found) {
     for (int y = 0; y < out.height; ++y)
       std::copy_n(&c.slice.hu[static_cast<size_t>(y0 + y) * w + x0], out.width,
                   &out.hu[static_cast<size_t>(y) * out.width]);
@@ -213,13 +226,21 @@ Slice PithTracker::averaged(int centre, const Vec2* box_centre, Vec2* origin) co
     float* dst = &out.hu[static_cast<size_t>(y) * out.width];
     std::fill(cnt.begin(), cnt.end(), 0.f);
     for (size_t k = 0; k < members.size(); ++k) {
-      if (std::isnan(level[k])) continue;
+      if (std::isnan(level[k].level)) continue;
       add_row(&members[k]->hu[static_cast<size_t>(y0 + y) * w + x0], level[k], 0, out.width, dst,
               cnt.data());
     }
     for (int x = 0; x < out.width; ++x) dst[x] = cnt[x] > 0 ? dst[x] / cnt[x] : centre_level;
   }
   return out;
+}
+
+PithOptions PithTracker::with_levels(int centre) const {
+  // The box around a prior holds little or no air: its window comes from the whole slice.
+  const Held& c = held_[static_cast<size_t>(centre - held_.front().index)];
+  PithOptions o = options_;
+  if (c.levels.found) o.wood_min_hu = c.levels.min_hu, o.wood_max_hu = c.levels.max_hu;
+  return o;
 }
 
 PithResult PithTracker::acquire(int centre) {
@@ -229,7 +250,7 @@ PithResult PithTracker::acquire(int centre) {
   // the pull of the section's shape or a noise pattern do not line up slice after slice.
   Vec2 origin;
   const std::vector<PithCandidate> cands =
-      pith_candidates(averaged(centre, nullptr, &origin), geometry_, options_);
+      pith_candidates(averaged(centre, nullptr, &origin), geometry_, with_levels(centre));
   PithResult r;
   if (cands.empty()) return r;
   std::vector<Vec2> at;
@@ -266,7 +287,7 @@ void PithTracker::decide(int centre) {
     h.pith.pith_mm = *prior;
     h.has_centre = true;
     h.centre = *prior;
-    h.crop = make_crop(h.slice, geometry_, *prior, h.wood_cells);
+    h.crop = make_crop(h.slice, geometry_, *prior, h.wood_cells, h.levels);
     return;
   }
   PithResult r;
@@ -274,7 +295,7 @@ void PithTracker::decide(int centre) {
   if (prior) {
     const Slice box = averaged(centre, prior, &origin);
     const Vec2 local = *prior - origin;
-    PithOptions near = options_;
+    PithOptions near = with_levels(centre);
     near.fall_back_to_whole_slice = false;  // the box is not the whole slice
     r = detect_pith(box, geometry_, near, &local);
     if (r.found && tracker_.ring_search_mm > 0) {
@@ -299,8 +320,20 @@ void PithTracker::decide(int centre) {
   } else if (!prior || !r.found || r.confidence < tracker_.min_confidence) {
     // No prior, or lost near it: search the whole (averaged) slice and keep the better answer.
     ++full_searches_;
-    const PithResult q = detect_pith(averaged(centre, nullptr, &origin), geometry_, options_, nullptr);
+    const PithResult q =
+        detect_pith(averaged(centre, nullptr, &origin), geometry_, with_levels(centre), nullptr);
     if (better(q, r)) r = q;
+  }
+  {
+    Vec2 c;
+    double R = 0;
+    if (log_section(h.slice, geometry_, with_levels(centre), &c, &R) && r.found &&
+        (r.pith_mm - c).norm() > tracker_.max_centre_offset * R) {
+      r.pith_mm = c;
+      r.confidence = tracker_.min_confidence;
+      last_ = c;  // the old prior led here: start again from the centre
+      pending_.reset();
+    }
   }
   // A pith moves little between detections: a jump is not trusted as the next prior, unless the
   // next detection lands by it too (the pith turned, or the prior was the one astray).
@@ -318,7 +351,8 @@ void PithTracker::decide(int centre) {
   h.pith = r;
   h.has_centre = r.found || last_.has_value();
   h.centre = r.found ? r.pith_mm : (last_ ? *last_ : Vec2{});
-  if (last_ || r.found) h.crop = make_crop(h.slice, geometry_, last_ ? *last_ : r.pith_mm, h.wood_cells);
+  if (last_ || r.found)
+    h.crop = make_crop(h.slice, geometry_, last_ ? *last_ : r.pith_mm, h.wood_cells, h.levels);
 }
 
 namespace {
@@ -328,7 +362,7 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
                       const std::vector<Vec2>& track, const VolumeGeometry& g,
                       const PithOptions& options, const PithRefineOptions& refine, int half,
                       int i, const std::vector<std::vector<double>>* outlines, Vec2 start,
-                      const std::vector<float>& levels) {
+                      const std::vector<Level>& levels) {
   const SliceCrop& c = crops[static_cast<size_t>(i)];
   if (c.hu.empty()) return {};
   const int n = static_cast<int>(crops.size());
@@ -345,7 +379,7 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
   avg.height = c.height;
   avg.hu.assign(c.hu.size(), 0.f);
   std::vector<float> count(avg.hu.size(), 0.f);
-  const float centre_level = levels[static_cast<size_t>(i)];
+  const float centre_level = levels[static_cast<size_t>(i)].level;
   if (std::isnan(centre_level)) return {};
   for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j) {
     const SliceCrop& m = crops[static_cast<size_t>(j)];
@@ -353,8 +387,8 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
     const double change = std::abs(static_cast<double>(m.wood_cells - c.wood_cells));
     if (change > kMaxAreaChange * static_cast<double>(std::max<std::int64_t>(c.wood_cells, 1)))
       continue;
-    const float level = levels[static_cast<size_t>(j)];
-    if (std::isnan(level)) continue;
+    const Level level = levels[static_cast<size_t>(j)];
+    if (std::isnan(level.level)) continue;
     // Pixel (x, y) of slice i sees the rings of slice j at (x, y) + drift.
     const Vec2 d = track[j] - track[i];
     const int dx = static_cast<int>(std::lround(d.x / g.spacing_x));
@@ -401,7 +435,7 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
   for (int i = 0; i < n; ++i)
     if (refined(i))
       for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j) needed[j] = 1;
-  std::vector<float> levels(crops.size(), NAN);
+  std::vector<Level> levels(crops.size());
   const double lrx = kLevelRadiusMm / geometry.spacing_x, lry = kLevelRadiusMm / geometry.spacing_y;
   std::atomic<int> next{0};
   auto level_work = [&] {
@@ -410,7 +444,7 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
       if (!needed[j] || m.hu.empty()) continue;
       levels[static_cast<size_t>(j)] =
           wood_level(m.hu.data(), m.width, m.height, track[j].x / geometry.spacing_x - m.x0,
-                     track[j].y / geometry.spacing_y - m.y0, lrx, lry, options);
+                     track[j].y / geometry.spacing_y - m.y0, lrx, lry, m.wood_min_hu, m.wood_max_hu);
     }
   };
   auto work = [&] {
@@ -430,6 +464,27 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
   run(level_work);
   run(work);
   return out;
+}
+
+bool contour_centre(const Vec2& around, const std::vector<double>& radius,
+                    const std::vector<bool>& valid, Vec2* centre) {
+  const size_t n = radius.size();
+  std::vector<Vec2> p;
+  for (size_t k = 0; k < n; ++k)
+    if (valid[k] && radius[k] > 0) {
+      const double w = kTwoPi * static_cast<double>(k) / static_cast<double>(n);
+      p.push_back({around.x + radius[k] * std::cos(w), around.y + radius[k] * std::sin(w)});
+    }
+  if (n == 0 || p.size() * 2 < n) return false;
+  double a = 0, cx = 0, cy = 0;
+  for (size_t k = 0; k < p.size(); ++k) {
+    const Vec2 u = p[k] - around, v = p[(k + 1) % p.size()] - around;
+    const double c = u.x * v.y - v.x * u.y;
+    a += c, cx += (u.x + v.x) * c, cy += (u.y + v.y) * c;
+  }
+  if (!(std::abs(a) > 1e-9)) return false;
+  *centre = around + Vec2{cx / (3 * a), cy / (3 * a)};
+  return true;
 }
 
 namespace {

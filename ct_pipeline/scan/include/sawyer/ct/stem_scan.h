@@ -20,6 +20,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "sawyer/core/result.h"
@@ -60,6 +61,18 @@ struct StemScanOptions {
   double first_search_mm = 4.0;
   double max_correction_mm = 6.0;
   double converged_mm = 0.25;
+  // Rings count as resolved where the ring profile's signal share (smoothed along z) reaches
+  // this (clear rings score 0.95 and more, resolved but faint ones 0.65-0.8; a lock one ring
+  // off, onto a knot or onto noise 0.2-0.6 in the robustness sweep), and the ring pith lies within max_shape_offset of the log's radius of the shape
+  // centre (the pith lies inside the heart: 1-5 % of the radius off the outline's centre in
+  // most logs, 7 % in the real Gran_1 spruce; rings that line up farther off are a knot's, or
+  // noise locked onto a ring).
+  double min_ring_signal = 0.6;
+  double max_shape_offset = 0.12;
+  // ... and where the ring period the profile shows is at least this many pixels: narrower
+  // rings are not resolved, and what lines up there is aliasing, knots or the heartwood step
+  // (real rings are 0.8-3 mm: at 1.5-2 mm pixels they never are).
+  double min_ring_period_px = 2.0;
   // When set (an empty_like volume of the source's geometry), every slice with a contour is
   // also kept here, cropped to the contour's largest radius plus volume_margin_mm around the
   // first track's pith (which the refinement moves by at most max_correction_mm): the knot
@@ -79,6 +92,32 @@ struct StemSliceRecord {
   ContourResult contour;      // around `pith` (re-centred from pith_raw)
   HeartwoodResult heartwood;  // around `pith`
   ScanLevels levels;          // this slice's own (valid = false where not measured)
+  // Pith diagnostics for the QA verdict (issue 20): the cue `pith` follows here, a confidence
+  // (0..1) and the error to expect (mm, a typical radial error, not a bound).
+  PithCue pith_cue = PithCue::none;
+  double pith_confidence = 0;
+  double pith_expected_error_mm = 0;
+  // The rings around the pith stood out of their noise (ring_signal, the ring profile's signal
+  // share 0..1 smoothed along z, at least StemScanOptions::min_ring_signal) and the ring pith
+  // lies inside the heart of the log (near pith_shape).
+  bool rings_resolved = false;
+  double ring_signal = 0;
+  double ring_period_mm = 0;  // the ring profile's period, smoothed along z as ring_signal
+  Vec2 pith_shape;  // centre of the outline (heartwood border where present), smoothed along z
+};
+
+// The scan's pith in a few figures (issue 20), for the QA verdict.
+struct PithSummary {
+  double rings_resolved_share = 0;  // of the slices with a pith
+  double shape_share = 0;           // slices whose pith follows the shape cue
+  double ring_signal = 0;           // median over the slices
+  double median_expected_error_mm = 0, max_expected_error_mm = 0;
+  // The offset of the ring pith from the shape centre where the rings were resolved (mm,
+  // median); what the shape cue is shifted by elsewhere. 0 when no slice had resolved rings.
+  double eccentricity_mm = 0;
+  // The longest run of slices following the shape cue (z, mm); NaN when none.
+  double uncertain_from_z = std::numeric_limits<double>::quiet_NaN();
+  double uncertain_to_z = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct StemScan {
@@ -100,6 +139,7 @@ struct StemScan {
   int pith_full_searches = 0;  // slices searched whole by the first track (lost or first)
   int pith_refinements = 0;    // ring-profile refinements, all passes
   int pith_refine_passes = 0;
+  PithSummary pith_summary;
   double slices_per_second() const { return seconds > 0 ? slices.size() / seconds : 0; }
 };
 

@@ -37,6 +37,20 @@ namespace sawyer::ct {
 int slices_within(const VolumeGeometry& geometry, double half_window_mm, int max_slices);
 int slice_step(const VolumeGeometry& geometry, double spacing_mm);
 
+// The evidence the final pith follows at a height (issue 20): the annual rings lined up around it
+// (resolved rings), or the centre of the log's outline and heartwood border shifted by the
+// eccentricity the rings showed elsewhere in the scan (rings unresolved: coarse pixels, faint
+// rings, rot or cracks over the centre).
+enum class PithCue { none, rings, shape };
+inline const char* pith_cue_name(PithCue c) {
+  return c == PithCue::rings ? "rings" : c == PithCue::shape ? "shape" : "none";
+}
+
+// Centre (mm) of the closed contour given as radius per equally spaced azimuth around `around`
+// where `valid` (the area centroid of the polygon); false with fewer than half the azimuths valid.
+bool contour_centre(const Vec2& around, const std::vector<double>& radius,
+                    const std::vector<bool>& valid, Vec2* centre);
+
 struct PithTrackerOptions {
   // Slices within this distance (mm along z) of a slice are averaged with it before its pith is
   // detected; 0: single slices. At least one neighbour each side is used when the spacing is
@@ -57,6 +71,11 @@ struct PithTrackerOptions {
   // Each detection near the prior is then refined by the ring profile (circles) within this
   // radius (mm); 0: not.
   double ring_search_mm = 2.0;
+  // The pith lies inside the heart of the log (1-5 % of the radius off the section's centre in
+  // most logs, rarely beyond 20 %): a detection farther than this share of the section's radius
+  // from its centre (a knot, noise near the bark at coarse pixels, the bed) is replaced by the
+  // centre, at the least confidence that still makes it the next prior (re-acquisition).
+  double max_centre_offset = 0.25;
 };
 
 // A full-resolution window of a slice around its pith, kept for the refinement pass; pixel
@@ -64,6 +83,8 @@ struct PithTrackerOptions {
 struct SliceCrop {
   int x0 = 0, y0 = 0, width = 0, height = 0;
   std::int64_t wood_cells = 0;  // the whole slice's coarse wood count (log-end test)
+  // The whole slice's wood window (wood_levels), for the level near the pith.
+  double wood_min_hu = 0, wood_max_hu = 0;
   std::vector<float> hu;
 };
 
@@ -100,12 +121,15 @@ class PithTracker {
     int index = -1;
     Slice slice;
     std::int64_t wood_cells = 0;  // coarse count of wood pixels, to recognise log ends
+    WoodLevels levels;            // the slice's own (wood_levels)
     PithResult pith;          // once decided
     SliceCrop crop;           // once decided
     bool has_centre = false;
     Vec2 centre;
   };
   void decide(int centre);
+  // options_ with the wood window of slice `centre` (held).
+  PithOptions with_levels(int centre) const;
   // The first pith: the whole slice's candidates, judged on this and the next searched slices.
   PithResult acquire(int centre);
   void release(std::vector<TrackedSlice>& out, bool all);

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "sawyer/core/vec.h"
@@ -23,29 +24,56 @@
 
 namespace sawyer::ct {
 
-// Denser than any wood at the nominal calibration of a green log: the bed's rubber belt (+200
-// HU), its rails and clutter steel. Sound knots are about 0 HU and wet sapwood -50, so wood lies
-// between PithOptions::wood_hu and this. The defaults of the options below; the stem pass sets
-// them from the scan's own levels (scan_levels.h).
+// Denser than any wood on the phantom's calibration: the bed's rubber belt (+200 HU), its rails
+// and clutter steel. The pith code no longer uses it (the wood window comes from each slice's
+// own levels, wood_levels()); kept for callers that still read a fixed window.
 inline constexpr double kMaxWoodHu = 150.0;
 
 struct PithOptions {
   // Search radius around the prior (mm) when one is given.
   double prior_radius_mm = 15.0;
-  // HU threshold separating wood (and bark) from air, used to find the log's extent, and the
-  // least HU denser than any wood (the bed, clutter): wood pixels lie between the two.
-  // ScanLevels::log_hu and dense_hu in the stem pass.
-  double wood_hu = -700.0;
-  double max_wood_hu = kMaxWoodHu;
+  // The window of wood (and bark) values, HU: above wood_min_hu is not air, below wood_max_hu not
+  // the bed or steel. NaN (the default): read from each slice's own histogram (wood_levels), so
+  // a shifted or scaled HU calibration, a dried log or a windowed 8-bit export is read as well
+  // as a green log on the phantom's calibration. A scan-level estimate (ScanLevels) slots in here.
+  double wood_min_hu = std::numeric_limits<double>::quiet_NaN();
+  double wood_max_hu = std::numeric_limits<double>::quiet_NaN();
   // With a prior and no wood near it: search the whole slice (true) or report not found.
   bool fall_back_to_whole_slice = true;
 };
+
+// Grey levels of a slice from its own histogram (issue 20). Values below -1500 HU (padding outside
+// the reconstruction circle: nothing is less dense than air on any calibration) are ignored; the
+// rest is split in two by Otsu's threshold, air below, the log (wood, bark, knots) and the bed
+// above; each side's median is its level. The wood window reaches 30 % of the way down towards
+// air (bark and dry wood stay in, noise in the air does not) and above the wood level by 20 % of
+// the air-wood step or four wood spreads, whichever is more (knots and latewood in, the belt and
+// steel out). `options` fields that are set replace the window's ends.
+struct WoodLevels {
+  bool found = false;     // false: no two classes (an empty or flat slice)
+  double air_hu = 0;      // median below the split
+  double wood_hu = 0;     // median above it
+  double min_hu = 0;      // wood window
+  double max_hu = 0;
+  double sigma_hu = 0;    // robust spread (1.4826 MAD) of the wood pixels: noise and ring signal
+  bool contains(double v) const { return v > min_hu && v < max_hu; }
+};
+WoodLevels wood_levels(const Slice& slice, const PithOptions& options);
 
 struct PithResult {
   Vec2 pith_mm;          // sub-pixel
   double confidence = 0;  // 0..1: how sharply the evidence peaks
   bool found = false;     // false: no log in the slice (air only, or too small)
+  // refine_pith_concentric only: the ring period (mm) its profile shows around the answer,
+  // from the profile's zero crossings (noise adds crossings, so never overstated); 0 elsewhere.
+  double ring_period_mm = 0;
 };
+
+// The log's section in a slice: centroid and equivalent radius (mm) of the largest connected
+// wood area (the wood window of `options`, wood_levels). False when there is none of a log's
+// size.
+bool log_section(const Slice& slice, const VolumeGeometry& geometry, const PithOptions& options,
+                 Vec2* centre_mm, double* radius_mm);
 
 PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,
                        const PithOptions& options, const Vec2* prior_mm);

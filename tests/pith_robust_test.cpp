@@ -1,0 +1,178 @@
+// Pith on real-scan conditions (issue 20): slow-grown rings, a knot whorl at the very start of
+// the scan, a coarse industrial scan, rings too faint to resolve; and the per-slice diagnostics
+// (cue, confidence, expected error) the QA verdict reads. Whole stem pass (scan_stem) on short
+// phantom sections against the exact pith; bounds are generous against the issue's targets
+// (bench/robustness measures those).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "sawyer/ct/phantom.h"
+#include "sawyer/ct/phantom_source.h"
+#include "sawyer/ct/stem_scan.h"
+#include "sawyer/model/log_json.h"
+#include "sawyer/test/test_util.h"
+
+namespace sawyer::ct {
+namespace {
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const size_t i = static_cast<size_t>(pos);
+  const double f = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
+}
+
+struct Outcome {
+  bool ok = false;
+  double median = 0, p95 = 0;
+  StemScan scan;
+};
+
+// The stem pass over [from_mm, to_mm] of a bundled log under `o`, pith error per slice.
+Outcome run(const std::string& log_name, double from_mm, double to_mm, PhantomOptions o,
+            const char* label) {
+  Outcome out;
+  auto log = read_log_json(test::sample_log(log_name) / "log.json");
+  EXPECT_TRUE(log.ok());
+  if (!log.ok()) return out;
+  o.from_mm = from_mm;
+  o.to_mm = to_mm;
+  auto ph = Phantom::create(log.value(), o);
+  EXPECT_TRUE(ph.ok()) << (ph.ok() ? "" : ph.error().message());
+  if (!ph.ok()) return out;
+  auto src = make_uniform_z(std::make_unique<PhantomSource>(*ph.value(), true), {});
+  EXPECT_TRUE(src.ok());
+  if (!src.ok()) return out;
+  StemScanOptions so;
+  so.threads = 1;
+  auto scan = scan_stem(*src.value(), so);
+  EXPECT_TRUE(scan.ok()) << (scan.ok() ? "" : scan.error().message());
+  if (!scan.ok()) return out;
+  const LogModel truth = ph.value()->truth_log();
+  std::vector<double> err;
+  for (const StemSliceRecord& rec : scan.value().slices)
+    err.push_back((rec.pith - truth.stem.pith_at(rec.z)).norm());
+  if (std::getenv("PITH_DEBUG"))
+    for (const StemSliceRecord& rec : scan.value().slices) {
+      const Vec2 want = truth.stem.pith_at(rec.z);
+      std::printf("z %7.1f pith %6.2f shape %6.2f refined %6.2f raw %6.2f sig %.2f per %.2f %s\n",
+                  rec.z, (rec.pith - want).norm(), (rec.pith_shape - want).norm(),
+                  rec.pith_refined.found ? (rec.pith_refined.pith_mm - want).norm() : -1.0,
+                  rec.pith_raw.found ? (rec.pith_raw.pith_mm - want).norm() : -1.0, rec.ring_signal,
+                  rec.ring_period_mm, pith_cue_name(rec.pith_cue));
+    }
+  out.ok = true;
+  out.median = percentile(err, 0.5);
+  out.p95 = percentile(err, 0.95);
+  out.scan = std::move(scan).value();
+  const PithSummary& s = out.scan.pith_summary;
+  std::printf("[pith robust] %-44s %3zu slices | median %.2f p95 %.2f mm | rings resolved on "
+              "%.0f %%, shape cue on %.0f %%, expected error median %.2f mm\n",
+              label, err.size(), out.median, out.p95, 100 * s.rings_resolved_share,
+              100 * s.shape_share, s.median_expected_error_mm);
+  return out;
+}
+
+PhantomOptions base() {
+  PhantomOptions o;
+  o.image_size = 512;
+  o.pixel_mm = 0.8;
+  o.slice_spacing_mm = 5.0;
+  o.seed = 11;
+  o.threads = 1;
+  return o;
+}
+
+// Every slice carries a cue, a confidence in 0..1 and a positive expected error.
+void expect_diagnostics(const StemScan& scan) {
+  for (const StemSliceRecord& rec : scan.slices) {
+    EXPECT_NE(rec.pith_cue, PithCue::none) << "z " << rec.z;
+    EXPECT_GE(rec.pith_confidence, 0.0);
+    EXPECT_LE(rec.pith_confidence, 1.0);
+    EXPECT_GT(rec.pith_expected_error_mm, 0.0);
+  }
+}
+
+// A slow-grown log: 1.2 mm rings (2.4 pixels at 0.5 mm) with latewood, ring signal at the low
+// end of real heartwood's.
+TEST(PithRobust, SlowGrownRings) {
+  PhantomOptions o = base();
+  o.image_size = 640;
+  o.pixel_mm = 0.5;
+  o.ring_width_mm = 1.2;
+  o.ring_contrast_hu = 60;  // real heartwood: 30-250 HU at 0.7 mm pixels
+  o.latewood_fraction = 0.3;
+  const Outcome r = run("spruce_77", 1000, 1080, o, "spruce_77, 1.2 mm rings, 0.5 mm pixels");
+  ASSERT_TRUE(r.ok);
+  EXPECT_LE(r.median, 2.5);
+  EXPECT_LE(r.p95, 5.0);
+  expect_diagnostics(r.scan);
+}
+
+// The scan starts in a whorl (pine_8's five knots at 1293-1313 mm), the knots dense (resin-
+// soaked): their flanks are the strongest oriented structure near the pith in the first slices,
+// and must not capture the first track.
+TEST(PithRobust, KnotWhorlAtTheStart) {
+  PhantomOptions o = base();
+  o.resin_knots = 1.0;
+  const Outcome r = run("pine_8", 1295, 1395, o, "pine_8 starting in a resin-knot whorl");
+  ASSERT_TRUE(r.ok);
+  EXPECT_LE(r.median, 1.0);
+  EXPECT_LE(r.p95, 3.0);
+  expect_diagnostics(r.scan);
+  EXPECT_GT(r.scan.pith_summary.rings_resolved_share, 0.5);
+}
+
+// Faint rings in a whorl at the noise of a fast scan: the rings do not line up anywhere
+// convincingly, the first track is kept inside the heart, and the pith follows the log's shape.
+TEST(PithRobust, FaintRingsInAWhorlFollowTheShape) {
+  PhantomOptions o = base();
+  o.ring_amplitude = 0.04;
+  o.noise_hu = 30;
+  const Outcome r = run("pine_8", 1295, 1395, o, "pine_8 in a whorl, faint rings");
+  ASSERT_TRUE(r.ok);
+  EXPECT_LE(r.median, 3.0);
+  expect_diagnostics(r.scan);
+}
+
+// An industrial intake scan: 1.6 mm pixels, 10 mm slices, 3 mm rings (under 2 pixels of
+// contrast after the PSF): the rings are not resolved and the pith follows the log's shape,
+// which in the real Gran_1 spruce lies 5-12 mm from the pith (the issue's 2 mm needs the knot
+// whorls' axes, not implemented yet). Inside the heart, and the diagnostics say how uncertain.
+TEST(PithRobust, CoarseIndustrialScan) {
+  PhantomOptions o = base();
+  o.image_size = 256;
+  o.pixel_mm = 1.6;
+  o.slice_spacing_mm = 10.0;
+  const Outcome r = run("gran1_spruce", 1000, 1400, o, "gran1_spruce, 1.6 mm pixels, 10 mm slices");
+  ASSERT_TRUE(r.ok);
+  EXPECT_LE(r.median, 9.0);
+  EXPECT_LE(r.p95, 15.0);
+  expect_diagnostics(r.scan);
+  EXPECT_LT(r.scan.pith_summary.rings_resolved_share, 0.5);
+  EXPECT_GE(r.scan.pith_summary.median_expected_error_mm, 0.5 * r.median);
+}
+
+// Rings at the noise (modulation a tenth of the default): unresolved. The pith comes from the
+// log's shape; the diagnostics say so and expect millimetres, not tenths.
+TEST(PithRobust, UnresolvedRingsFallBackOnShape) {
+  PhantomOptions o = base();
+  o.ring_amplitude = 0.008;
+  o.noise_hu = 30;
+  const Outcome r = run("spruce_77", 1000, 1100, o, "spruce_77, rings at the noise");
+  ASSERT_TRUE(r.ok);
+  EXPECT_LE(r.median, 6.0);
+  expect_diagnostics(r.scan);
+  EXPECT_LT(r.scan.pith_summary.rings_resolved_share, 0.5);
+  EXPECT_GE(r.scan.pith_summary.median_expected_error_mm, 1.0);
+}
+
+}  // namespace
+}  // namespace sawyer::ct
