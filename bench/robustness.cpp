@@ -231,7 +231,8 @@ struct Figures {
   std::string qa_warnings;      // its warnings, joined
   // The figures it rests on (ScanQaDetail), for --qa-csv.
   double qa_pith_suspect = NAN, qa_pith_run_mm = NAN, qa_ring_share = NAN,
-         qa_outline_suspect = NAN, qa_knots_per_m = NAN;
+         qa_outline_suspect = NAN, qa_knots_per_m = NAN, qa_expected_median = NAN,
+         qa_expected_p95 = NAN, qa_resolved = NAN;
   double seconds_render = 0, seconds_scan = 0;
   std::string knot_signal;  // the knot pass's noise, thresholds and ring rejections (stderr)
 };
@@ -247,6 +248,9 @@ void scan_qa(const ScanQaDetail& qa, Figures& f) {
   f.qa_ring_share = qa.pith_median_ring_share;
   f.qa_outline_suspect = qa.outline_suspect_share;
   f.qa_knots_per_m = qa.knots_per_m;
+  f.qa_expected_median = qa.pith_expected_median_mm;
+  f.qa_expected_p95 = qa.pith_expected_p95_mm;
+  f.qa_resolved = qa.rings_resolved_share;
 }
 
 // Narrowest ring within 20 mm of the pith, in pixels, from the drawn width profile (linear from
@@ -795,7 +799,8 @@ void write_qa_csv(const std::vector<Done>& done, const std::string& path) {
     return;
   }
   std::fprintf(out, "id,error,fails,fails_pith,fails_outline,fails_knots,flagged,pith_suspect,"
-                    "pith_run_mm,ring_share,outline_suspect,knots_per_m,pith_median,outer_rms\n");
+                    "pith_run_mm,ring_share,outline_suspect,knots_per_m,pith_median,outer_rms,"
+                    "expected_median,expected_p95,resolved_share,pith_p95,fine\n");
   for (const Done& d : done) {
     if (d.f.excluded) continue;
     std::string failed;
@@ -805,10 +810,13 @@ void write_qa_csv(const std::vector<Done>& done, const std::string& path) {
       failed = "1";
       (k <= 2 ? fp : (k <= 4 ? fo : fk)) = true;
     }
-    std::fprintf(out, "%d,%d,%d,%d,%d,%d,%d,%g,%g,%g,%g,%g,%g,%g\n", d.c.id, !d.f.error.empty(),
+    std::fprintf(out, "%d,%d,%d,%d,%d,%d,%d,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%d\n", d.c.id,
+                 !d.f.error.empty(),
                  !failed.empty() || !d.f.error.empty(), fp, fo, fk, d.f.flagged.value_or(false),
                  d.f.qa_pith_suspect, d.f.qa_pith_run_mm, d.f.qa_ring_share,
-                 d.f.qa_outline_suspect, d.f.qa_knots_per_m, d.f.pith_median, d.f.outer_rms);
+                 d.f.qa_outline_suspect, d.f.qa_knots_per_m, d.f.pith_median, d.f.outer_rms,
+                 d.f.qa_expected_median, d.f.qa_expected_p95, d.f.qa_resolved, d.f.pith_p95,
+                 d.f.fine);
   }
   std::fclose(out);
 }

@@ -120,6 +120,13 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                                         : 1.0;
 
   // ---- per slice ----
+  // Scan class (issue 20's targets): fine scans resolve rings where they are wide enough; coarse
+  // industrial ones do not, and their pith comes from the log's shape.
+  d.coarse = !(g.spacing_x <= o.fine_pixel_mm && g.spacing_y <= o.fine_pixel_mm &&
+               dz < o.coarse_slice_mm);
+  const auto p95_limit = [&](bool resolved) {
+    return d.coarse ? o.pith_coarse_p95_mm : resolved ? o.pith_fine_p95_mm : o.pith_narrow_p95_mm;
+  };
   std::vector<double> shares;
   int measured = 0, pith_suspects = 0, outline_suspects = 0, at_edge = 0;
   const StemSliceRecord* prev = nullptr;
@@ -151,6 +158,7 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       if (outline_centre(r.heartwood.radius, r.heartwood.valid, r.pith, &hc, &hr) && hr > 0)
         outside_core = (r.pith - hc).norm() > 0.6 * hr;
     }
+    q.expected_error_mm = r.pith_expected_error_mm;
     const bool weak = !r.pith_refined.found || q.ring_share < o.pith_min_ring_share;
     const bool off_track = r.pith_outlier || q.pith_residual_mm > o.pith_residual_mm;
     if (have_outline && q.eccentricity > o.pith_max_eccentricity) {
@@ -162,6 +170,9 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
     } else if (weak && off_track) {
       q.pith_suspect = true;
       q.pith_why = "rings weak, off the track";
+    } else if (q.expected_error_mm > p95_limit(r.rings_resolved)) {
+      q.pith_suspect = true;
+      q.pith_why = r.rings_resolved ? "rings faint" : "rings unresolved, pith from the log's shape";
     }
     pith_suspects += q.pith_suspect;
     // Outline.
@@ -246,6 +257,25 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
     ScanQa::Stage st{"pith", true, 1.0, {}};
     d.pith_suspect_share = measured ? static_cast<double>(pith_suspects) / measured : 1.0;
     d.pith_median_ring_share = median_of(shares);
+    std::vector<double> expected;
+    int resolved = 0;
+    for (size_t i = 0; i < n; ++i)
+      if (d.slices[i].measured) {
+        expected.push_back(d.slices[i].expected_error_mm);
+        resolved += scan.slices[i].rings_resolved;
+      }
+    d.rings_resolved_share = measured ? static_cast<double>(resolved) / measured : 0.0;
+    d.pith_expected_median_mm = median_of(expected);
+    if (!expected.empty()) {
+      std::sort(expected.begin(), expected.end());
+      d.pith_expected_p95_mm = expected[std::min(expected.size() - 1,
+                                                 static_cast<size_t>(0.95 * expected.size()))];
+    }
+    const bool mostly_resolved = 2 * resolved >= measured;
+    d.pith_limit_median_mm = d.coarse           ? o.pith_coarse_median_mm
+                             : mostly_resolved ? o.pith_fine_median_mm
+                                               : o.pith_narrow_median_mm;
+    d.pith_limit_p95_mm = p95_limit(mostly_resolved);
     const auto runs = runs_of(d.slices, [](const QaSlice& q) { return q.pith_suspect; });
     for (const Run& r : runs) d.pith_longest_run_mm = std::max(d.pith_longest_run_mm, r.z1 - r.z0 + dz);
     char line[256];
@@ -254,6 +284,13 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                   "%.0f mm",
                   pith_suspects, measured, pct(d.pith_suspect_share).c_str(),
                   d.pith_median_ring_share, d.pith_longest_run_mm);
+    st.notes.push_back(line);
+    std::snprintf(line, sizeof line,
+                  "%s scan; rings resolved on %s of the slices; expected pith error median %.2f "
+                  "mm, 95th percentile %.2f mm (limits %.1f and %.1f mm)",
+                  d.coarse ? "coarse" : "fine", pct(d.rings_resolved_share).c_str(),
+                  d.pith_expected_median_mm, d.pith_expected_p95_mm, d.pith_limit_median_mm,
+                  d.pith_limit_p95_mm);
     st.notes.push_back(line);
     // Where, and why (the most common reason in each run); the three longest runs.
     std::vector<Run> sorted = runs;
@@ -264,7 +301,8 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       if (r.count < 2) continue;
       std::string why;
       int best = 0;
-      for (const char* reason : {"near the bark", "outside the heartwood", "rings weak, off the track"}) {
+      for (const char* reason : {"near the bark", "outside the heartwood", "rings weak, off the track",
+                                 "rings faint", "rings unresolved, pith from the log's shape"}) {
         int c = 0;
         for (const QaSlice& q : d.slices)
           if (q.pith_suspect && q.z >= r.z0 && q.z <= r.z1 && q.pith_why == reason) ++c;
@@ -273,12 +311,21 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       st.notes.push_back("pith uncertain over " + z_span(r.z0, r.z1) + ": " + why);
     }
     st.confidence = std::clamp(1.0 - d.pith_suspect_share / std::max(o.pith_max_suspect_share, 1e-6) * 0.5, 0.0, 1.0);
+    const bool expected_too_big = d.pith_expected_median_mm > d.pith_limit_median_mm ||
+                                  d.pith_expected_p95_mm > d.pith_limit_p95_mm;
     if (measured > 0 && (d.pith_suspect_share > o.pith_max_suspect_share ||
-                         d.pith_longest_run_mm > o.pith_max_run_mm)) {
+                         d.pith_longest_run_mm > o.pith_max_run_mm || expected_too_big)) {
       st.ok = false;
       std::string w = "pith uncertain on " + pct(d.pith_suspect_share) + " of the slices";
       if (!sorted.empty() && sorted.front().count >= 2)
         w += " (worst " + z_span(sorted.front().z0, sorted.front().z1) + ")";
+      if (expected_too_big) {
+        std::snprintf(line, sizeof line,
+                      "; expected error median %.1f mm, 95th percentile %.1f mm (%s)",
+                      d.pith_expected_median_mm, d.pith_expected_p95_mm,
+                      d.rings_resolved_share < 0.5 ? "rings unresolved" : "rings faint");
+        w += line;
+      }
       warnings.push_back(w);
     }
     v.stages.push_back(std::move(st));

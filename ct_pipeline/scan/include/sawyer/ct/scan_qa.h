@@ -43,6 +43,15 @@ struct QaOptions {
   // measured slices is suspect, or a run of suspect slices is longer than pith_max_run_mm.
   double pith_max_suspect_share = 0.25;
   double pith_max_run_mm = 300.0;
+  // The pith's expected error (StemSliceRecord::pith_expected_error_mm, from the cue the pith
+  // follows and how well it stood out) against what a sawing decision needs, by scan class:
+  // fine scans (pixels <= fine_pixel_mm, slices < coarse_slice_mm) with resolved rings
+  // median <= 0.5 mm, 95th percentile <= 1.5 mm; fine scans without, 1.5 and 3 mm; coarse
+  // scans median <= 2 mm (and 95th percentile <= 4 mm).
+  double fine_pixel_mm = 1.0, coarse_slice_mm = 10.0;
+  double pith_fine_median_mm = 0.5, pith_fine_p95_mm = 1.5;
+  double pith_narrow_median_mm = 1.5, pith_narrow_p95_mm = 3.0;
+  double pith_coarse_median_mm = 2.0, pith_coarse_p95_mm = 4.0;
   // Outline. Per slice: the share of azimuths where no surface was found (filled in), the RMS
   // of the radius about its own ±5° running median (bark flakes, a touching log, streaks) and
   // the median change of the radius from the slice before per mm of z (a log's outline
@@ -63,6 +72,7 @@ struct QaSlice {
   double z = 0;                  // mm, from the scan's geometry (first slice 0)
   bool measured = false;         // the stem pass measured this slice
   double ring_share = 0;         // the refined pith's ring alignment (0 when not refined)
+  double expected_error_mm = 0;  // the stem pass's expected pith error here
   double pith_residual_mm = 0;   // refined pith to the smoothed track
   double eccentricity = 0;       // pith to outline centroid / mean radius
   bool pith_suspect = false;
@@ -79,6 +89,11 @@ struct ScanQaDetail {
   std::vector<QaSlice> slices;  // one per scanned slice
   // The figures the verdict rests on (also in the stages' notes), for benches and tests.
   double pith_suspect_share = 0, pith_longest_run_mm = 0, pith_median_ring_share = 0;
+  // The pith's expected error over the measured slices (mm) and the limits it was held to.
+  double pith_expected_median_mm = 0, pith_expected_p95_mm = 0;
+  double pith_limit_median_mm = 0, pith_limit_p95_mm = 0;
+  double rings_resolved_share = 0;
+  bool coarse = false;
   double outline_suspect_share = 0;
   double outline_at_edge_share = 0;  // slices cut by the image's edge
   double knots_per_m = 0;
