@@ -695,12 +695,14 @@ WoodLevels wood_levels(const Slice& s, const PithOptions& options) {
     lv.air_hu = lv.min_hu, lv.wood_hu = 0.5 * (lv.min_hu + lv.max_hu);
     return lv;
   }
-  // Every third pixel each way: plenty for two levels, a few hundredths of the slice's time.
+  // Every sixth pixel each way (7000 of a 512 x 512 slice): plenty for two levels, and cheap on
+  // the reading thread, which takes the levels of every slice.
+  constexpr int kStep = 6;
   std::vector<float> v;
-  v.reserve(static_cast<size_t>(s.width / 3 + 1) * static_cast<size_t>(s.height / 3 + 1));
+  v.reserve(static_cast<size_t>(s.width / kStep + 1) * static_cast<size_t>(s.height / kStep + 1));
   float lo = INFINITY, hi = -INFINITY;
-  for (int y = 1; y < s.height; y += 3)
-    for (int x = 1; x < s.width; x += 3) {
+  for (int y = kStep / 2; y < s.height; y += kStep)
+    for (int x = kStep / 2; x < s.width; x += kStep) {
       const float q = s.at(x, y);
       if (!(q > kPaddingHu)) continue;
       v.push_back(q);
