@@ -32,6 +32,7 @@
 
 #include "sawyer/ct/knot_match.h"
 #include "sawyer/ct/knot_scan.h"
+#include "sawyer/ct/scan_log.h"
 #include "sawyer/ct/log_volume.h"
 #include "sawyer/ct/phantom.h"
 #include "sawyer/ct/phantom_source.h"
@@ -88,13 +89,10 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, std::u
   auto uniform = make_uniform_z(std::make_unique<PhantomSource>(p, true), OpenOptions{});
   if (!uniform) return uniform.error();
   SliceSource& src = *uniform.value();
-  LogVolume vol = LogVolume::empty_like(src.geometry());
-  StemScanOptions so;
-  so.volume = &vol;
-  auto stem = scan_stem(src, so);
-  if (!stem) return stem.error();
-  auto knots = scan_knots(vol, stem.value().stem, {});
-  if (!knots) return knots.error();
+  auto scanned = scan_log(src, {});  // as `sawyer scan` does
+  if (!scanned) return scanned.error();
+  const StemScan& stem = scanned.value().stem;
+  const KnotScan& knots = scanned.value().knots;
   const LogModel truth = p.truth_log();
   const double zlo = src.geometry().z.front() + 5.0, zhi = src.geometry().z.back() - 5.0;
 
@@ -102,11 +100,11 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, std::u
   row.log = log.id;
   row.condition = condition;
   row.slices = src.geometry().slice_count();
-  row.seconds_stem = stem.value().seconds;
-  row.seconds_knots = knots.value().seconds;
+  row.seconds_stem = stem.seconds;
+  row.seconds_knots = knots.seconds;
   KnotMatchOptions mo;
   mo.z_lo = zlo, mo.z_hi = zhi;
-  const KnotMatch m = match_knots(knots.value().knots, truth.knots, truth.stem, mo);
+  const KnotMatch m = match_knots(knots.knots, truth.knots, truth.stem, mo);
   row.found = m.found;
   row.truth_big = m.truth_counted;
   row.found_big = m.truth_found;
@@ -146,24 +144,20 @@ void time_whole_log(const LogModel& log) {
   size_t bytes = 0;
   int knots = 0;
   for (int rep = 0; rep < 3; ++rep) {
-    LogVolume vol = LogVolume::empty_like(src.geometry());
-    StemScanOptions so;
-    so.volume = &vol;
+    ScanOptions so;
     so.threads = 2;
     const double c0 = process_cpu_seconds();
-    auto stem = scan_stem(src, so);
-    if (!stem) return;
-    KnotScanOptions ko;
-    ko.threads = 2;
-    auto k = scan_knots(vol, stem.value().stem, ko);
-    if (!k) return;
+    auto scanned = scan_log(src, so);
+    if (!scanned) return;
     const double c1 = process_cpu_seconds();
-    const KnotScan& s = k.value();
+    const KnotScan& s = scanned.value().knots;
+    const StemScan& stem = scanned.value().stem;
+    const LogVolume& vol = *scanned.value().volume;
     if (s.seconds < best_total) {
       best_total = s.seconds, best_detect = s.seconds_detect, best_fit = s.seconds_fit;
       cpu = c1 - c0;
     }
-    best_stem = std::min(best_stem, stem.value().seconds);
+    best_stem = std::min(best_stem, stem.seconds);
     bytes = vol.bytes();
     knots = static_cast<int>(s.knots.size());
   }

@@ -11,6 +11,7 @@
 
 #include "sawyer/ct/knot_match.h"
 #include "sawyer/ct/knot_scan.h"
+#include "sawyer/ct/scan_log.h"
 #include "sawyer/ct/log_volume.h"
 #include "sawyer/ct/phantom.h"
 #include "sawyer/ct/phantom_source.h"
@@ -22,15 +23,6 @@ namespace sawyer::ct {
 namespace {
 
 namespace fs = std::filesystem;
-
-// The stem pass keeping the voxels in `vol`, then the knot pass, as `sawyer scan` runs them.
-Result<KnotScan> scan_in_memory(SliceSource& src, LogVolume* vol) {
-  StemScanOptions so;
-  so.volume = vol;
-  auto stem = scan_stem(src, so);
-  if (!stem) return stem.error();
-  return scan_knots(*vol, stem.value().stem);
-}
 
 // The missed and the spurious knots, one line each.
 void print_unmatched(const KnotMatch& m) {
@@ -110,14 +102,14 @@ TEST(KnotScan, ClutteredTiltedSectionOfTheRealLog) {
   auto uniform = make_uniform_z(std::make_unique<PhantomSource>(*ph.value(), true), OpenOptions{});
   ASSERT_TRUE(uniform.ok()) << uniform.error().message();
   SliceSource& src = *uniform.value();
-  LogVolume vol = LogVolume::empty_like(src.geometry());
-  auto knots = scan_in_memory(src, &vol);
-  ASSERT_TRUE(knots.ok()) << knots.error().message();
+  auto scanned = scan_log(src, {});  // as `sawyer scan` runs it
+  ASSERT_TRUE(scanned.ok()) << scanned.error().message();
+  const KnotScan& knots = scanned.value().knots;
   const LogModel truth = ph.value()->truth_log();
   KnotMatchOptions mo;
   mo.z_lo = src.geometry().z.front() + 5.0;
   mo.z_hi = src.geometry().z.back() - 5.0;
-  const KnotMatch m = match_knots(knots.value().knots, truth.knots, truth.stem, mo);
+  const KnotMatch m = match_knots(knots.knots, truth.knots, truth.stem, mo);
   print_unmatched(m);
   ASSERT_GE(m.truth_counted, 10) << "the section holds the real log's knots";
   EXPECT_GE(m.recall(), 0.9);
@@ -138,11 +130,11 @@ TEST(KnotScan, ClearLogYieldsNoKnots) {
   auto ph = Phantom::create(clear, o);
   ASSERT_TRUE(ph.ok()) << ph.error().message();
   PhantomSource src(*ph.value(), true);
-  LogVolume vol = LogVolume::empty_like(src.geometry());
-  auto knots = scan_in_memory(src, &vol);
-  ASSERT_TRUE(knots.ok()) << knots.error().message();
-  EXPECT_EQ(knots.value().knots.size(), 0u);
-  EXPECT_GT(vol.bytes(), 0u) << "the stem pass kept the log's voxels";
+  auto scanned = scan_log(src, {});
+  ASSERT_TRUE(scanned.ok()) << scanned.error().message();
+  EXPECT_EQ(scanned.value().knots.knots.size(), 0u);
+  EXPECT_EQ(scanned.value().log.knots.size(), 0u);
+  EXPECT_GT(scanned.value().volume->bytes(), 0u) << "the stem pass kept the log's voxels";
 }
 
 }  // namespace
