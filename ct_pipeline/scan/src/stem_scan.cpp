@@ -341,7 +341,7 @@ void apply_levels(const ScanLevels& l, double heartwood_sigmas, PithOptions* p, 
     c->air_hu = l.air_hu;
     c->outer_wood_hu = l.wood_high_hu;
     c->noise_hu = sigma;
-    c->wood_max_hu = l.dense_hu;
+    c->wood_max_hu = l.dense_median_hu;  // a median of a few samples: tighter than a pixel's
     c->wood_peak_hu = l.wood_high_hu + 2.25 * (l.dense_hu - l.wood_high_hu);
   }
   if (h) h->min_contrast_hu = heartwood_sigmas * sigma;

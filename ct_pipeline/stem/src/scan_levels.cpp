@@ -25,12 +25,20 @@ constexpr double kMinAirShare = 0.05, kMinModeShare = 0.03, kMinWoodModeShare = 
 // at the nominal calibration the -700 HU the stem pass always used (air -1000, heartwood -500),
 // above the outer bark's edge blurred with air, so logs touching bark to bark stay apart.
 constexpr double kLogShare = 0.6;
-// Two wood modes count as two (a dry core in wet sapwood) when this many noise sigmas apart.
+// Two wood modes count as two (a dry core in wet sapwood) when this many noise sigmas apart, or
+// when the histogram between them falls below this share of the smaller one's height: two
+// populations with few pixels between (the border's partial volume), whatever the noise. The
+// noise sigma alone misses them on a coarse, noisy scan with a compressed calibration (1.8 mm
+// pixels, 55 HU noise, slope 0.9: heartwood and sapwood 400 HU apart are "only" 7.5 sigmas).
 constexpr double kTwoModeSigmas = 8.0;
+constexpr double kTwoModeValley = 1.0 / 3.0;
 // Denser than the densest wood mode by this share of its height over air (green sapwood ~950
 // kg/m^3 -> ~1140, under the belt's 1200; knots of dried wood fall above it and are no bother),
 // and at least this many noise sigmas: the bed, the rails and clutter.
 constexpr double kDenseShare = 0.2, kDenseSigmas = 4.0;
+// The fewest samples whose median dense_median_hu is for (the contour's inside window spans 3
+// coarse steps on a 1-2 mm scan, more on a finer one).
+constexpr double kDenseMedianSamples = 3.0;
 // Wood lighter than this over air (HU ~ kg/m^3 at a slope-1 calibration), in one mode, looks
 // dried: green sapwood holds 800-1050 kg/m^3, dried softwood 350-550.
 constexpr double kDriedBelowHu = 700.0;
@@ -179,15 +187,27 @@ ScanLevels estimate_levels(const Slice& slice, int samples) {
   out.noise_air_hu = mad_sigma(d_air) / std::sqrt(1.5);
   out.noise_wood_hu = mad_sigma(d_wood) / std::sqrt(1.5);
   const double sigma = std::max(out.noise_hu(), bw);
+  const Mode *low = dom, *high = dom;
   for (const Mode* m : wood_modes) {
-    if (m->hu < out.wood_low_hu) out.wood_low_hu = m->hu;
-    if (m->hu > out.wood_high_hu) out.wood_high_hu = m->hu;
+    if (m->hu < low->hu) low = m;
+    if (m->hu > high->hu) high = m;
   }
-  out.two_wood_modes = out.wood_high_hu - out.wood_low_hu >= kTwoModeSigmas * sigma;
+  out.wood_low_hu = low->hu, out.wood_high_hu = high->hu;
+  double valley = 0;
+  if (low != high) {
+    valley = std::min(S[low->peak_bin], S[high->peak_bin]);
+    for (int i = low->peak_bin; i <= high->peak_bin; ++i) valley = std::min(valley, S[i]);
+  }
+  out.two_wood_modes =
+      low != high && (out.wood_high_hu - out.wood_low_hu >= kTwoModeSigmas * sigma ||
+                      valley < kTwoModeValley * std::min(S[low->peak_bin], S[high->peak_bin]));
   if (!out.two_wood_modes) out.wood_low_hu = out.wood_high_hu = out.wood_hu;
   out.log_hu = out.air_hu + kLogShare * (out.wood_low_hu - out.air_hu);
   out.dense_hu = out.wood_high_hu + std::max(kDenseShare * (out.wood_high_hu - out.air_hu),
                                              kDenseSigmas * sigma);
+  out.dense_median_hu =
+      out.wood_high_hu + std::max(kDenseShare * (out.wood_high_hu - out.air_hu),
+                                  kDenseSigmas * sigma / std::sqrt(kDenseMedianSamples));
   // A clipped air says nothing of the calibration.
   out.shift_hu = out.air_clipped ? 0.0 : out.air_hu + 1000.0;
   out.wood_over_air_hu = out.wood_hu - out.air_hu;
@@ -242,6 +262,7 @@ ScanLevels pool_levels(const std::vector<ScanLevels>& slices) {
   out.noise_wood_hu = med(&ScanLevels::noise_wood_hu);
   out.log_hu = med(&ScanLevels::log_hu);
   out.dense_hu = med(&ScanLevels::dense_hu);
+  out.dense_median_hu = med(&ScanLevels::dense_median_hu);
   out.shift_hu = med(&ScanLevels::shift_hu);
   out.wood_over_air_hu = med(&ScanLevels::wood_over_air_hu);
   out.fraction_log = med(&ScanLevels::fraction_log);

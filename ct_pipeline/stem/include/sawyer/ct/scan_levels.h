@@ -41,6 +41,9 @@ struct ScanLevels {
   // Derived thresholds.
   double log_hu = -700;      // air / log: 60 % of the way from air to the lightest wood mode
   double dense_hu = 150;     // denser than any wood: the bed's belt, rails, clutter
+  // The same for the median of a few samples (the contour's test of the wood inside a surface):
+  // its noise is a median's, not a pixel's, so a noisy scan does not lift it over the belt.
+  double dense_median_hu = 150;
   // The calibration as it looks: air_hu + 1000 ("HU appear shifted by about +N"), and the wood's
   // density over air (HU above air: about kg/m^3 at a slope-1 calibration).
   double shift_hu = 0;
