@@ -19,7 +19,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// 40 cm of the real spruce log at 1.2 mm pixels (the same cached scan as run_cli_test).
+// 40 cm of the real spruce log at 0.8 mm pixels (the same cached scan as run_cli_test).
 fs::path small_ct() { return test::gran1_40cm_ct(); }
 
 // 2ex with boards kept from 200 mm: the test log is short.
@@ -406,9 +406,9 @@ TEST(InventedSlices, RunStatesTheResamplingInItsSummaryRunJsonAndReport) {
   test::TempDir dir;
   // Three slices left out at random: few enough to be resampled (not refused), and then said.
   const fs::path ct = test::cached_phantom(
-      "gran1_40cm_dropped", test::quoted(test::sample_log("gran1_spruce") / "log.json") +
-                                " --from-mm 1000 --to-mm 1400 --size 320 --pixel-mm 1.2 --seed 5"
-                                " --drop-slices 3");
+      "gran1_40cm_08_dropped", test::quoted(test::sample_log("gran1_spruce") / "log.json") +
+                                   " --from-mm 1000 --to-mm 1400 --size 480 --pixel-mm 0.8"
+                                   " --seed 5 --drop-slices 3");
   std::string out;
   ASSERT_EQ(test::run_sawyer(run_args(ct, dir / "out", dir.path()), &out), 0) << out;
   EXPECT_TRUE(mentions(out, "note: resampled along z")) << out;

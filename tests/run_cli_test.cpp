@@ -20,7 +20,7 @@ using Json = nlohmann::json;
 
 namespace {
 
-// 40 cm of the real spruce log at 1.2 mm pixels: small enough to scan in a second or two.
+// 40 cm of the real spruce log at 0.8 mm pixels (test_util.h): small enough to scan in a second or two.
 fs::path small_ct() { return test::gran1_40cm_ct(); }
 
 // 2ex with boards kept from 200 mm: the test log is short.

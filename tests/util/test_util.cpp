@@ -75,8 +75,8 @@ int run_sawyer(const std::string& args, std::string* output) {
 
 fs::path gran1_40cm_ct() {
   static const fs::path p = cached_phantom(
-      "gran1_40cm", quoted(sample_log("gran1_spruce") / "log.json") +
-                        " --from-mm 1000 --to-mm 1400 --size 320 --pixel-mm 1.2 --seed 3");
+      "gran1_40cm_08", quoted(sample_log("gran1_spruce") / "log.json") +
+                           " --from-mm 1000 --to-mm 1400 --size 480 --pixel-mm 0.8 --seed 3");
   return p;
 }
 
