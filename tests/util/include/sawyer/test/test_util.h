@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "sawyer/model/log_model.h"
 
@@ -50,9 +51,11 @@ std::filesystem::path cached_phantom(const std::string& name, const std::string&
 
 // 40 cm of the real spruce log (gran1, 1000-1400 mm) at 0.8 mm pixels, 480², 5 mm slices: a
 // cached_phantom small enough for `sawyer run` in a second or two (run, reliability tests), and
-// fine enough that its rings are resolved and the scan's QA verdict trusts it (at 1.2 mm pixels
-// the pith comes from the log's shape, about 7 mm off on this log, and the verdict says so).
+// fine enough that its rings are resolved and the scan's QA verdict trusts it.
 std::filesystem::path gran1_40cm_ct();
+
+// The q-quantile (0..1) of `v`, linear between order statistics; 0 for an empty `v`.
+double percentile(std::vector<double> v, double q);
 
 // Writes a text file (test fixtures).
 void write_file(const std::filesystem::path& path, const std::string& text);
