@@ -8,37 +8,23 @@
 #include <vector>
 
 #include "sawyer/core/vec.h"
+#include "sawyer/ct/pith_track.h"
 
 namespace sawyer::ct {
 
 namespace {
 
-// Area centroid and mean radius of a closed polar outline around `c` (valid entries only);
-// false with fewer than half the azimuths valid.
+// Area centroid (pith_track.h contour_centre) and mean radius of a closed polar outline around
+// `c`; false with fewer than half the azimuths valid.
 bool outline_centre(const std::vector<double>& radius, const std::vector<bool>& valid, Vec2 c,
                     Vec2* centre, double* mean_r) {
-  const int n = static_cast<int>(radius.size());
-  std::vector<Vec2> pts;
-  double sum_r = 0;
-  for (int k = 0; k < n; ++k) {
-    if (!valid[static_cast<size_t>(k)] || !(radius[static_cast<size_t>(k)] > 0)) continue;
-    const double w = kTwoPi * k / n, r = radius[static_cast<size_t>(k)];
-    pts.push_back({c.x + r * std::cos(w), c.y + r * std::sin(w)});
-    sum_r += r;
-  }
-  if (static_cast<int>(pts.size()) * 2 < n) return false;
-  double a2 = 0, cx = 0, cy = 0;
-  for (size_t i = 0; i < pts.size(); ++i) {
-    const Vec2& p = pts[i];
-    const Vec2& q = pts[(i + 1) % pts.size()];
-    const double cr = p.x * q.y - q.x * p.y;
-    a2 += cr;
-    cx += (p.x + q.x) * cr;
-    cy += (p.y + q.y) * cr;
-  }
-  if (std::abs(a2) < 1e-9) return false;
-  *centre = {cx / (3 * a2), cy / (3 * a2)};
-  *mean_r = sum_r / pts.size();
+  if (!contour_centre(c, radius, valid, centre)) return false;
+  double sum = 0;
+  int n = 0;
+  for (size_t k = 0; k < radius.size(); ++k)
+    if (valid[k] && radius[k] > 0) sum += radius[k], ++n;
+  if (n == 0) return false;
+  *mean_r = sum / n;
   return true;
 }
 
