@@ -158,7 +158,9 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       q.pith_why = "rings weak, off the track";
     } else if (q.expected_error_mm > p95_limit(r.rings_resolved)) {
       q.pith_suspect = true;
-      q.pith_why = r.rings_resolved ? "rings faint" : "rings unresolved, pith from the log's shape";
+      q.pith_why = r.rings_resolved                    ? "rings faint"
+                   : r.pith_cue == PithCue::whorls ? "rings unresolved, pith from the knot whorls"
+                                                     : "rings unresolved, pith from the log's shape";
     }
     pith_suspects += q.pith_suspect;
     // Outline.
@@ -272,9 +274,10 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                   d.pith_median_ring_share, d.pith_longest_run_mm);
     st.notes.push_back(line);
     std::snprintf(line, sizeof line,
-                  "%s scan; rings resolved on %s of the slices; expected pith error median %.2f "
-                  "mm, 95th percentile %.2f mm (limits %.1f and %.1f mm)",
+                  "%s scan; rings resolved on %s of the slices, knot whorls met on %d; expected "
+                  "pith error median %.2f mm, 95th percentile %.2f mm (limits %.1f and %.1f mm)",
                   d.coarse ? "coarse" : "fine", pct(d.rings_resolved_share).c_str(),
+                  scan.pith_summary.whorl_slices,
                   d.pith_expected_median_mm, d.pith_expected_p95_mm, d.pith_limit_median_mm,
                   d.pith_limit_p95_mm);
     st.notes.push_back(line);
@@ -288,7 +291,8 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       std::string why;
       int best = 0;
       for (const char* reason : {"near the bark", "outside the heartwood", "rings weak, off the track",
-                                 "rings faint", "rings unresolved, pith from the log's shape"}) {
+                                 "rings faint", "rings unresolved, pith from the knot whorls",
+                                 "rings unresolved, pith from the log's shape"}) {
         int c = 0;
         for (const QaSlice& q : d.slices)
           if (q.pith_suspect && q.z >= r.z0 && q.z <= r.z1 && q.pith_why == reason) ++c;

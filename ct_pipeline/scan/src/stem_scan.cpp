@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "sawyer/core/stats.h"
+#include "sawyer/ct/pith_whorl.h"
 
 namespace sawyer::ct {
 
@@ -83,16 +84,65 @@ class JobQueue {
   bool closed_ = false;
 };
 
+// The whorl cue (pith_whorl.h): every slice's knot streaks in the frame of its shape centre,
+// pooled over neighbouring slices (a whorl's knots leave the pith over some 50 mm of height, and
+// at coarse slice spacing each knot shows in one or two slices), meet where the pith stands off
+// the shape centre. That offset changes slowly along a stem (in the real Gran_1 spruce by up to
+// 5 mm per 100 mm): between whorls it is interpolated, beyond them carried, with an error that
+// grows with the distance, and weighed against the shape cue's own.
+constexpr double kWhorlPoolSigmaMm = 25.0;  // pooling weight along z (Gaussian); reach 2 sigma
+constexpr double kWhorlReachMm = 300.0;     // meetings this close in z are compared
+constexpr double kWhorlNodeMm = 30.0;       // kept meetings this close in z are averaged
+constexpr double kOffsetDriftPerMm = 0.04;  // the pith-shape offset's change along a stem
+
+struct WhorlOffsets {
+  std::vector<double> z, e;  // nodes, ascending z
+  std::vector<Vec2> o;
+  bool empty() const { return z.empty(); }
+  // Nodes from kept meetings (z ascending): runs closer than kWhorlNodeMm averaged.
+  void build(const std::vector<double>& mz, const std::vector<double>& me,
+             const std::vector<Vec2>& mo) {
+    for (size_t k = 0; k < mz.size();) {
+      size_t j = k;
+      double sw = 0, sz = 0, ew = 0;
+      Vec2 m{0, 0};
+      while (j < mz.size() && mz[j] - mz[k] <= kWhorlNodeMm) {
+        const double w = 1.0 / (me[j] * me[j]);
+        sw += w, sz += w * mz[j], ew += w * me[j], m = m + w * mo[j];
+        ++j;
+      }
+      z.push_back(sz / sw), e.push_back(ew / sw), o.push_back((1.0 / sw) * m);
+      k = j;
+    }
+  }
+  // The offset at height zz and the error to expect of it.
+  Vec2 at(double zz, double* error) const {
+    size_t hi = 0;
+    while (hi < z.size() && z[hi] < zz) ++hi;
+    if (hi == 0 || hi == z.size()) {
+      const size_t k = hi == 0 ? 0 : z.size() - 1;
+      *error = std::hypot(e[k], kOffsetDriftPerMm * std::abs(zz - z[k]));
+      return o[k];
+    }
+    const size_t lo = hi - 1;
+    const double t = (zz - z[lo]) / (z[hi] - z[lo]);
+    const double d = std::min(zz - z[lo], z[hi] - zz);
+    *error = std::hypot((1 - t) * e[lo] + t * e[hi], kOffsetDriftPerMm * d);
+    return (1 - t) * o[lo] + t * o[hi];
+  }
+};
+
 // The pith from every cue (issue 20). The ring track (`track`, from `refined`) stands where the
 // rings were resolved; elsewhere (coarse pixels, faint rings, rot over the centre, or a ring
 // track that left the heart of the log) the pith follows the centre of the log's shape (the
-// heartwood border where there is one, else the outline), shifted by the eccentricity the rings
-// showed where resolved. Fills the records' diagnostics and the summary; `track` is updated.
-// `research(centres, which)` refines the slices `which` marks again around `centres`.
+// heartwood border where there is one, else the outline), shifted by the pith's offset from it
+// that the knot whorls showed nearby (pith_whorl.h) or, without whorls, by the eccentricity the
+// rings showed where resolved. Fills the records' diagnostics and the summary; `track` is
+// updated. `research(centres, which)` refines the slices `which` marks again around `centres`.
 template <typename Research>
 void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<PithResult> refined,
-                    std::vector<Vec2>& track, const StemScanOptions& options,
-                    const VolumeGeometry& g, Research research) {
+                    std::vector<Vec2>& track, const std::vector<SliceCrop>& crops,
+                    const StemScanOptions& options, const VolumeGeometry& g, Research research) {
   const int n = static_cast<int>(scan.slices.size());
   std::vector<PithResult> shape_raw(static_cast<size_t>(n));
   std::vector<double> radius(static_cast<size_t>(n), 0.0);
@@ -180,6 +230,83 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     resolved[static_cast<size_t>(i)] = rec.rings_resolved;
     if (rec.rings_resolved) offsets.push_back(d);
   }
+  // The whorls: each slice's knot streaks (pith_whorl.h) inside the heartwood, or the inner
+  // part of the section (wet sapwood is as bright as a knot), in the frame of the shape centre.
+  const double noise = scan.levels.valid ? scan.levels.noise_hu() : 0.0;
+  std::vector<std::vector<WhorlStreak>> streaks(static_cast<size_t>(n));
+  std::vector<double> region(static_cast<size_t>(n), 0.0);
+  for (int i = 0; i < n; ++i) {
+    const StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
+    if (!rec.measured || crops[static_cast<size_t>(i)].hu.empty() || resolved[static_cast<size_t>(i)])
+      continue;
+    double reg = 0.6 * radius[static_cast<size_t>(i)];
+    if (rec.heartwood.present) {
+      std::vector<double> hr;
+      for (size_t k = 0; k < rec.heartwood.radius.size(); ++k)
+        if (rec.heartwood.valid[k]) hr.push_back(rec.heartwood.radius[k]);
+      if (!hr.empty()) reg = 0.9 * median(hr);
+    }
+    region[static_cast<size_t>(i)] = reg;
+    streaks[static_cast<size_t>(i)] =
+        knot_streaks(crops[static_cast<size_t>(i)], g, shape[static_cast<size_t>(i)], reg, noise,
+                     options.whorl);
+    for (WhorlStreak& st : streaks[static_cast<size_t>(i)])
+      st.centre_mm = st.centre_mm - shape[static_cast<size_t>(i)];
+  }
+  // Where the streaks within reach along z meet, per unresolved slice.
+  std::vector<double> wz, we;
+  std::vector<Vec2> wo;
+  std::vector<int> wi, wd;
+  for (int i = 0; i < n; ++i) {
+    if (region[static_cast<size_t>(i)] <= 0) continue;
+    std::vector<WhorlStreak> pool;
+    std::vector<double> weight;
+    for (int j = 0; j < n; ++j) {
+      const double dz = z[static_cast<size_t>(j)] - z[static_cast<size_t>(i)];
+      if (std::abs(dz) > 2 * kWhorlPoolSigmaMm) continue;
+      for (WhorlStreak st : streaks[static_cast<size_t>(j)]) {
+        st.dz_mm = dz;
+        pool.push_back(st);
+        weight.push_back(std::exp(-0.5 * dz * dz / (kWhorlPoolSigmaMm * kWhorlPoolSigmaMm)));
+      }
+    }
+    if (pool.size() < 2) continue;
+    const WhorlPith w = meet_streaks(std::move(pool), std::move(weight), {0, 0},
+                                     region[static_cast<size_t>(i)], pixel_mm, options.whorl);
+    if (!w.found) continue;
+    double dz2 = 0;
+    int c = 0;
+    for (const WhorlStreak& st : w.streaks)
+      if (st.inlier) dz2 += st.dz_mm * st.dz_mm, ++c;
+    StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
+    rec.whorl_found = true;
+    rec.pith_whorl = shape[static_cast<size_t>(i)] + w.pith_mm;
+    rec.whorl_knots = w.distinct;
+    wz.push_back(z[static_cast<size_t>(i)]);
+    we.push_back(std::hypot(w.expected_error_mm, kOffsetDriftPerMm * std::sqrt(dz2 / c)));
+    wo.push_back(w.pith_mm);
+    wi.push_back(i);
+    wd.push_back(w.distinct);
+  }
+  // Kept: a meeting of three knots' lines at least, or of two that another meeting nearby
+  // agrees with; never against most of the meetings within kWhorlReachMm (a false meeting, say
+  // a metal streak across a knot, or two resin pockets, stands alone).
+  std::vector<double> kz, ke;
+  std::vector<Vec2> ko;
+  for (size_t k = 0; k < wz.size(); ++k) {
+    int near = 0, agree = 0;
+    for (size_t j = 0; j < wz.size(); ++j) {
+      if (j == k || std::abs(wz[j] - wz[k]) > kWhorlReachMm) continue;
+      ++near;
+      agree += (wo[j] - wo[k]).norm() <= 3.0 + 2.0 * (we[j] + we[k]);
+    }
+    if ((agree >= 1 || wd[k] >= 3) && 2 * agree >= near) {
+      kz.push_back(wz[k]), ke.push_back(we[k]), ko.push_back(wo[k]);
+      scan.slices[static_cast<size_t>(wi[k])].whorl_used = true;
+    }
+  }
+  WhorlOffsets whorls;
+  whorls.build(kz, ke, ko);
   // The pith's offset from the shape centre changes slowly along a log: where the rings were
   // resolved on most of the scan, their median offset carries over to the rest (a few slices'
   // rings, perhaps noise that lined up, do not move the whole shape track).
@@ -202,7 +329,8 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
                                                  : std::max(0.1 * r_log, g.spacing_x);
   std::vector<PithResult> fused(static_cast<size_t>(n));
   std::vector<double> errors, signals;
-  int shape_slices = 0, resolved_slices = 0, run_from = -1, best_from = -1, best_to = -1;
+  int shape_slices = 0, whorl_slices = 0, resolved_slices = 0, run_from = -1, best_from = -1,
+      best_to = -1;
   for (int i = 0; i <= n; ++i) {
     const bool use_shape = i < n && !resolved[static_cast<size_t>(i)];
     if (use_shape && run_from < 0) run_from = i;
@@ -214,7 +342,17 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
     PithResult& f = fused[static_cast<size_t>(i)];
     f.found = true;
-    if (use_shape) {
+    if (use_shape && !whorls.empty()) {
+      // The whorls' offset here, weighed against the shape cue's (which wins far from them).
+      double e = 0;
+      const Vec2 o = whorls.at(z[static_cast<size_t>(i)], &e);
+      const double a = 1.0 / (e * e), b = 1.0 / (shape_error * shape_error);
+      f.pith_mm = shape[static_cast<size_t>(i)] + (1.0 / (a + b)) * (a * o + b * ecc);
+      f.confidence = 0.7;
+      rec.pith_cue = a >= b ? PithCue::whorls : PithCue::shape;
+      rec.pith_expected_error_mm = std::max(1.0 / std::sqrt(a + b), 0.5 * pixel_mm);
+      ++(a >= b ? whorl_slices : shape_slices);
+    } else if (use_shape) {
       f.pith_mm = shape[static_cast<size_t>(i)] + ecc;
       f.confidence = 0.5;
       rec.pith_cue = PithCue::shape;
@@ -230,12 +368,13 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
       ++resolved_slices;
     }
     rec.pith_confidence =
-        std::clamp(rec.pith_cue == PithCue::rings ? rec.ring_signal : 0.5 * g.spacing_x / shape_error,
+        std::clamp(rec.pith_cue == PithCue::rings ? rec.ring_signal
+                                                  : 0.5 * g.spacing_x / rec.pith_expected_error_mm,
                    0.0, 1.0);
     errors.push_back(rec.pith_expected_error_mm);
     signals.push_back(rec.ring_signal);
   }
-  if (shape_slices > 0) {
+  if (shape_slices + whorl_slices > 0) {
     // Both cues in one scan: one smooth track through them (the shape cue's slices weigh less).
     const std::vector<Vec2> t = resolved_slices > 0 ? smooth_pith_track(z, fused, options.track)
                                                     : std::vector<Vec2>{};
@@ -247,6 +386,8 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   }
   sum.rings_resolved_share = n ? static_cast<double>(resolved_slices) / n : 0.0;
   sum.shape_share = n ? static_cast<double>(shape_slices) / n : 0.0;
+  sum.whorl_share = n ? static_cast<double>(whorl_slices) / n : 0.0;
+  sum.whorl_slices = static_cast<int>(kz.size());
   sum.ring_signal = median(signals);
   sum.median_expected_error_mm = median(errors);
   sum.max_expected_error_mm = errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end());
@@ -524,13 +665,13 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
     ++scan.pith_refine_passes;
     if (!again) break;
   }
-  fuse_pith_cues(scan, z, refined, track, options, g,
-                 [&](const std::vector<Vec2>& centres, const std::vector<bool>& which) {
+  fuse_pith_cues(scan, z, refined, track, crops, options, g,
+                 [&](const std::vector<Vec2>& centres, const std::vector<bool>& marked) {
                    PithRefineOptions wide = ro;
                    wide.search_radius_mm = options.first_search_mm;  // as the first pass: a fair comparison
                    const std::vector<std::vector<double>> outlines = outlines_around(centres);
                    std::vector<PithResult> r = refine_pith_track(crops, z, centres, g, options.pith,
-                                                                 wide, &outlines, &which);
+                                                                 wide, &outlines, &marked);
                    for (const PithResult& q : r) scan.pith_refinements += q.found;
                    return r;
                  });

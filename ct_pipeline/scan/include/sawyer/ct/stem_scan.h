@@ -26,6 +26,7 @@
 #include "sawyer/core/result.h"
 #include "sawyer/ct/log_volume.h"
 #include "sawyer/ct/pith_track.h"
+#include "sawyer/ct/pith_whorl.h"
 #include "sawyer/ct/scan_levels.h"
 #include "sawyer/ct/slice_source.h"
 #include "sawyer/ct/stem_detect.h"
@@ -73,6 +74,8 @@ struct StemScanOptions {
   // rings are not resolved, and what lines up there is aliasing, knots or the heartwood step
   // (real rings are 0.8-3 mm: at 1.5-2 mm pixels they never are).
   double min_ring_period_px = 2.0;
+  // The whorl cue (pith_whorl.h) where the rings are not resolved.
+  WhorlPithOptions whorl;
   // When set (an empty_like volume of the source's geometry), every slice with a contour is
   // also kept here, cropped to the contour's largest radius plus volume_margin_mm around the
   // first track's pith (which the refinement moves by at most max_correction_mm): the knot
@@ -104,12 +107,19 @@ struct StemSliceRecord {
   double ring_signal = 0;
   double ring_period_mm = 0;  // the ring profile's period, smoothed along z as ring_signal
   Vec2 pith_shape;  // centre of the outline (heartwood border where present), smoothed along z
+  // Where a whorl's knot streaks met in this slice (pith_whorl.h; whorl_knots streaks), and
+  // whether that meeting point agreed with the whorls nearby (only those move the pith).
+  bool whorl_found = false, whorl_used = false;
+  Vec2 pith_whorl;
+  int whorl_knots = 0;
 };
 
 // The scan's pith in a few figures (issue 20), for the QA verdict.
 struct PithSummary {
   double rings_resolved_share = 0;  // of the slices with a pith
   double shape_share = 0;           // slices whose pith follows the shape cue
+  double whorl_share = 0;           // slices whose pith follows the whorls' offset
+  int whorl_slices = 0;             // slices where a whorl's knot streaks met (and agreed)
   double ring_signal = 0;           // median over the slices
   double median_expected_error_mm = 0, max_expected_error_mm = 0;
   // The offset of the ring pith from the shape centre where the rings were resolved (mm,

@@ -38,12 +38,16 @@ int slices_within(const VolumeGeometry& geometry, double half_window_mm, int max
 int slice_step(const VolumeGeometry& geometry, double spacing_mm);
 
 // The evidence the final pith follows at a height (issue 20): the annual rings lined up around it
-// (resolved rings), or the centre of the log's outline and heartwood border shifted by the
-// eccentricity the rings showed elsewhere in the scan (rings unresolved: coarse pixels, faint
-// rings, rot or cracks over the centre).
-enum class PithCue { none, rings, shape };
+// (resolved rings); where they are not (coarse pixels, faint rings, rot or cracks over the
+// centre), the centre of the log's outline and heartwood border shifted by the pith's offset
+// from it that the knot whorls nearby showed (pith_whorl.h), or else by the one the rings
+// showed elsewhere in the scan.
+enum class PithCue { none, rings, whorls, shape };
 inline const char* pith_cue_name(PithCue c) {
-  return c == PithCue::rings ? "rings" : c == PithCue::shape ? "shape" : "none";
+  return c == PithCue::rings    ? "rings"
+         : c == PithCue::whorls ? "whorls"
+         : c == PithCue::shape  ? "shape"
+                                : "none";
 }
 
 // Centre (mm) of the closed contour given as radius per equally spaced azimuth around `around`
