@@ -365,6 +365,14 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
   for (const StemSliceRecord& rec : s.slices) {
     const Vec2 want = truth.stem.pith_at(rec.z);
     err.push_back((rec.pith - want).norm());
+    if (std::getenv("SAWYER_PITH_TRACE"))  // per-slice pith figures, for diagnosing one condition
+      std::fprintf(stderr,
+                   "  z %7.1f pith %6.2f shape %6.2f whorl %6.2f%s (%d) signal %.2f period %.2f "
+                   "expected %.2f cue %s\n",
+                   rec.z, (rec.pith - want).norm(), (rec.pith_shape - want).norm(),
+                   rec.whorl_found ? (rec.pith_whorl - want).norm() : -1.0,
+                   rec.whorl_used ? "*" : " ", rec.whorl_knots, rec.ring_signal,
+                   rec.ring_period_mm, rec.pith_expected_error_mm, pith_cue_name(rec.pith_cue));
     auto add = [&](std::vector<double> rad, std::vector<bool> ok, auto truth_at, double& sum2,
                    long& count) {
       recentre_contour(rec.pith, want, rad, ok);

@@ -273,7 +273,9 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     if (pool.size() < 2) continue;
     const WhorlPith w = meet_streaks(std::move(pool), std::move(weight), {0, 0},
                                      region[static_cast<size_t>(i)], pixel_mm, options.whorl);
-    if (!w.found) continue;
+    // As for the rings: a pith this far off the shape centre is not believed.
+    const double R = radius[static_cast<size_t>(i)] > 0 ? radius[static_cast<size_t>(i)] : r_log;
+    if (!w.found || w.pith_mm.norm() > options.max_shape_offset * R) continue;
     double dz2 = 0;
     int c = 0;
     for (const WhorlStreak& st : w.streaks)
@@ -288,19 +290,25 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     wi.push_back(i);
     wd.push_back(w.distinct);
   }
-  // Kept: a meeting of three knots' lines at least, or of two that another meeting nearby
-  // agrees with; never against most of the meetings within kWhorlReachMm (a false meeting, say
-  // a metal streak across a knot, or two resin pockets, stands alone).
+  // Kept: a meeting of three knots' lines at least (two lines always meet), or of two that an
+  // independent meeting agrees with (one whose pool of streaks is another: more than two pooling
+  // reaches away along z, within kWhorlReachMm); never against most of the meetings within
+  // kWhorlReachMm (a false meeting, say a metal streak across a knot, or two resin pockets,
+  // stands alone).
   std::vector<double> kz, ke;
   std::vector<Vec2> ko;
   for (size_t k = 0; k < wz.size(); ++k) {
-    int near = 0, agree = 0;
+    int near = 0, agree = 0, independent = 0;
     for (size_t j = 0; j < wz.size(); ++j) {
-      if (j == k || std::abs(wz[j] - wz[k]) > kWhorlReachMm) continue;
+      const double dz = std::abs(wz[j] - wz[k]);
+      if (j == k || dz > kWhorlReachMm) continue;
       ++near;
-      agree += (wo[j] - wo[k]).norm() <= 3.0 + 2.0 * (we[j] + we[k]);
+      const bool same =
+          (wo[j] - wo[k]).norm() <= 2.0 * std::hypot(we[j], we[k]) + kOffsetDriftPerMm * dz;
+      agree += same;
+      independent += same && dz > 4 * kWhorlPoolSigmaMm;
     }
-    if ((agree >= 1 || wd[k] >= 3) && 2 * agree >= near) {
+    if ((independent >= 1 || wd[k] >= 3) && 2 * agree >= near) {
       kz.push_back(wz[k]), ke.push_back(we[k]), ko.push_back(wo[k]);
       scan.slices[static_cast<size_t>(wi[k])].whorl_used = true;
     }

@@ -225,8 +225,9 @@ WhorlPith meet_streaks(std::vector<WhorlStreak> streaks, std::vector<double> wei
   out.pith_mm = p;
   out.knots = count;
   out.residual_mm = std::sqrt(ss / count);
-  // Two lines always meet: their error is a line's, about a pixel; more lines show theirs. The
-  // narrower the widest angle, the farther along the lines an error moves the point.
+  // Two lines always meet: their error is a line's (a knot's axis misses the pith by a pixel or
+  // by its curvature and twist, line_error_mm); more lines show theirs. The narrower the widest
+  // angle, the farther along the lines an error moves the point.
   // Streaks of one knot in neighbouring slices (pooled ones) lie along one line and count once:
   // distinct directions, 10 degrees apart.
   std::vector<Vec2> dirs;
@@ -239,7 +240,8 @@ WhorlPith meet_streaks(std::vector<WhorlStreak> streaks, std::vector<double> wei
     if (!seen) dirs.push_back(streaks[a].direction);
   }
   out.distinct = static_cast<int>(dirs.size());
-  const double line_error = std::max(pixel, out.distinct > 2 ? out.residual_mm : 0.0);
+  const double line_error =
+      std::max({pixel, o.line_error_mm, out.distinct > 2 ? out.residual_mm : 0.0});
   out.expected_error_mm = std::max(0.5 * pixel, line_error / std::sqrt(std::max(1, out.distinct - 1)) /
                                                      std::max(std::sin(widest), 0.4));
   return out;

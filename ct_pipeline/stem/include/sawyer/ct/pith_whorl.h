@@ -37,6 +37,7 @@ struct WhorlPithOptions {
   double min_elongation = 2.5;    // length over width
   double min_angle_deg = 25.0;    // the widest pair of inlier streaks at least this far apart
   double max_residual_mm = 3.0;   // inlier: the line passes this close to the meeting point
+  double line_error_mm = 2.0;     // a knot axis's own miss of the pith (curved, twisted knots)
   int max_streaks = 24;           // the longest ones (a slice of hundreds is not a whorl)
 };
 
