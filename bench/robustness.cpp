@@ -367,9 +367,11 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
     err.push_back((rec.pith - want).norm());
     if (std::getenv("SAWYER_PITH_TRACE"))  // per-slice pith figures, for diagnosing one condition
       std::fprintf(stderr,
-                   "  z %7.1f pith %6.2f shape %6.2f whorl %6.2f%s (%d) signal %.2f period %.2f "
-                   "expected %.2f cue %s\n",
+                   "  z %7.1f pith %6.2f shape %6.2f raw %6.2f refined %6.2f whorl %6.2f%s (%d) "
+                   "signal %.2f period %.2f expected %.2f cue %s\n",
                    rec.z, (rec.pith - want).norm(), (rec.pith_shape - want).norm(),
+                   rec.pith_raw.found ? (rec.pith_raw.pith_mm - want).norm() : -1.0,
+                   rec.pith_refined.found ? (rec.pith_refined.pith_mm - want).norm() : -1.0,
                    rec.whorl_found ? (rec.pith_whorl - want).norm() : -1.0,
                    rec.whorl_used ? "*" : " ", rec.whorl_knots, rec.ring_signal,
                    rec.ring_period_mm, rec.pith_expected_error_mm, pith_cue_name(rec.pith_cue));
