@@ -121,6 +121,28 @@ TEST(AssessScan, WeakRingsAloneAreNotAFailureButWeakAndOffTrackIs) {
   EXPECT_EQ(d.slices[0].pith_why, "rings weak, off the track");
 }
 
+// Strong rings locked where the knots of the whorls do not meet: the ring pith is suspect. Near
+// the meeting point (within its error) it is not.
+TEST(AssessScan, RingsAndKnotWhorlsThatDisagreeMakeThePithSuspect) {
+  StemScan s = sound_scan();
+  for (auto& r : s.slices) {
+    r.rings_resolved = true;
+    r.pith_refined.confidence = 0.9;
+    r.pith_expected_error_mm = 0.2;
+    r.whorl_found = r.whorl_used = true;
+    r.whorl_error_mm = 1.5;
+    r.pith_whorl = r.pith + Vec2{2.0, 1.0};  // 2.2 mm: within 2 + 2 x 1.5 mm
+  }
+  EXPECT_TRUE(assess_scan(s, nullptr, geometry_of(40)).verdict.trusted);
+  for (auto& r : s.slices) r.pith_whorl = r.pith + Vec2{-7.0, 4.0};  // one ring pith 8 mm off
+  const ScanQaDetail d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_FALSE(stage(d.verdict, "pith").ok);
+  EXPECT_EQ(d.slices[0].pith_why, "rings and knot whorls disagree");
+  // A meeting that was not kept (it agreed with no other) is no evidence.
+  for (auto& r : s.slices) r.whorl_used = false;
+  EXPECT_TRUE(assess_scan(s, nullptr, geometry_of(40)).verdict.trusted);
+}
+
 TEST(AssessScan, AnOutlineNotFoundOnAQuarterOfTheCircleFailsTheOutlineStage) {
   StemScan s = sound_scan();
   for (auto& r : s.slices)

@@ -156,6 +156,13 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
     } else if (weak && off_track) {
       q.pith_suspect = true;
       q.pith_why = "rings weak, off the track";
+    } else if (r.rings_resolved && r.whorl_used &&
+               (r.pith_whorl - r.pith).norm() >
+                   o.pith_whorl_disagree_mm + 2.0 * std::hypot(r.whorl_error_mm, q.expected_error_mm)) {
+      // The knots of a whorl meet elsewhere: the rings may be locked one ring off or onto a
+      // pattern that is not the pith's.
+      q.pith_suspect = true;
+      q.pith_why = "rings and knot whorls disagree";
     } else if (q.expected_error_mm > p95_limit(r.rings_resolved)) {
       q.pith_suspect = true;
       q.pith_why = r.rings_resolved                    ? "rings faint"
@@ -291,6 +298,7 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       std::string why;
       int best = 0;
       for (const char* reason : {"near the bark", "outside the heartwood", "rings weak, off the track",
+                                 "rings and knot whorls disagree",
                                  "rings faint", "rings unresolved, pith from the knot whorls",
                                  "rings unresolved, pith from the log's shape"}) {
         int c = 0;

@@ -238,8 +238,7 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   std::vector<double> region(static_cast<size_t>(n), 0.0);
   for (int i = 0; i < n; ++i) {
     const StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
-    if (!rec.measured || crops[static_cast<size_t>(i)].hu.empty() || resolved[static_cast<size_t>(i)])
-      continue;
+    if (!rec.measured || crops[static_cast<size_t>(i)].hu.empty()) continue;
     double reg = 0.6 * radius[static_cast<size_t>(i)];
     if (rec.heartwood.present) {
       std::vector<double> hr;
@@ -281,12 +280,14 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     int c = 0;
     for (const WhorlStreak& st : w.streaks)
       if (st.inlier) dz2 += st.dz_mm * st.dz_mm, ++c;
+    const double we_i = std::hypot(w.expected_error_mm, kOffsetDriftPerMm * std::sqrt(dz2 / c));
     StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
     rec.whorl_found = true;
     rec.pith_whorl = shape[static_cast<size_t>(i)] + w.pith_mm;
     rec.whorl_knots = w.distinct;
+    rec.whorl_error_mm = we_i;
     wz.push_back(z[static_cast<size_t>(i)]);
-    we.push_back(std::hypot(w.expected_error_mm, kOffsetDriftPerMm * std::sqrt(dz2 / c)));
+    we.push_back(we_i);
     wo.push_back(w.pith_mm);
     wi.push_back(i);
     wd.push_back(w.distinct);
@@ -310,8 +311,11 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
       independent += same && dz > 4 * kWhorlPoolSigmaMm;
     }
     if ((independent >= 1 || wd[k] >= 3) && 2 * agree >= near) {
-      kz.push_back(wz[k]), ke.push_back(we[k]), ko.push_back(wo[k]);
       scan.slices[static_cast<size_t>(wi[k])].whorl_used = true;
+      // Where the rings were resolved the meeting is a check on them (the QA verdict compares
+      // the two), not a cue: the rings are the more precise.
+      if (!resolved[static_cast<size_t>(wi[k])])
+        kz.push_back(wz[k]), ke.push_back(we[k]), ko.push_back(wo[k]);
     }
   }
   WhorlOffsets whorls;

@@ -52,6 +52,9 @@ struct QaOptions {
   double pith_fine_median_mm = 0.5, pith_fine_p95_mm = 1.5;
   double pith_narrow_median_mm = 1.5, pith_narrow_p95_mm = 3.0;
   double pith_coarse_median_mm = 2.0, pith_coarse_p95_mm = 4.0;
+  // A resolved ring pith this far (plus twice the combined expected errors) from where a kept
+  // whorl's knot axes meet is suspect.
+  double pith_whorl_disagree_mm = 2.0;
   // Outline. Per slice: the share of azimuths where no surface was found (filled in), the RMS
   // of the radius about its own ±5° running median (bark flakes, a touching log, streaks) and
   // the median change of the radius from the slice before per mm of z (a log's outline

@@ -112,6 +112,7 @@ struct StemSliceRecord {
   bool whorl_found = false, whorl_used = false;
   Vec2 pith_whorl;
   int whorl_knots = 0;
+  double whorl_error_mm = 0;  // the meeting point's expected error
 };
 
 // The scan's pith in a few figures (issue 20), for the QA verdict.
