@@ -89,6 +89,16 @@ TEST(ScanLevels, GreenLog) {
   expect_levels(estimate_levels(one_slice("spruce_77", small_options())), 0, 1, false, "green");
 }
 
+// An industrial intake geometry: 512 px of 1.6 mm, the log a tenth of the field of view and its
+// wet sapwood ring a few per cent of it. Both wood modes are found (a 3 % floor on any mode used
+// to drop the sapwood: the log read as dried and no outline closed).
+TEST(ScanLevels, GreenLogInAWideFieldOfView) {
+  PhantomOptions o = small_options();
+  o.image_size = 512;
+  o.pixel_mm = 1.6;
+  expect_levels(estimate_levels(one_slice("spruce_77", o)), 0, 1, false, "green, 819 mm field");
+}
+
 TEST(ScanLevels, DriedLog) {
   PhantomOptions o = small_options();
   o.moisture = Moisture::kDried;
@@ -237,6 +247,19 @@ TEST(ScanLevels, StemPassOnDriedSection) {
   EXPECT_TRUE(e.levels.dried);
   EXPECT_LE(e.outer_rms, 1.5);
   EXPECT_LE(e.pith_median, 2.0);
+}
+
+TEST(ScanLevels, StemPassInAWideFieldOfView) {
+  PhantomOptions o = small_options();
+  o.image_size = 512;
+  o.pixel_mm = 1.6;
+  o.slice_spacing_mm = 10.0;
+  const StemErrors e = stem_pass("spruce_77", o, 1000, 1200);
+  std::printf("[levels] stem pass 512 px x 1.6 mm: outer RMS %.2f mm, pith median %.2f mm; %s\n",
+              e.outer_rms, e.pith_median, describe(e.levels).c_str());
+  EXPECT_TRUE(e.levels.two_wood_modes);
+  EXPECT_LE(e.outer_rms, 2.0);
+  EXPECT_LE(e.pith_median, 5.0);
 }
 
 TEST(ScanLevels, StemPassOnShiftedCalibration) {
