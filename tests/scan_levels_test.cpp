@@ -178,6 +178,28 @@ TEST(ScanLevels, Windowed8Bit) {
   EXPECT_LT(l.log_hu, -600);
 }
 
+// A dried log, calibrated 159 HU high, in a windowed 8-bit export whose top (+197 HU) clips a
+// steel plate under it: the spike at the data's top is not a second wood mode, and the log still reads as dried
+// (sweep condition #88, at this geometry, was refused when it did).
+TEST(ScanLevels, DriedLogWindowedClipsTheBedAtTheTop) {
+  PhantomOptions o = small_options();
+  o.moisture = Moisture::kDried;
+  o.image_size = 256;
+  o.pixel_mm = 1.71;
+  o.hu_offset = 159;
+  Slice s = one_slice("spruce_77", o);
+  // Dense things clipped at the window's top (a steel bed plate under the log: 2 % of the slice).
+  for (int y = s.height - 6; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x) s.hu[static_cast<size_t>(y) * s.width + x] = 2200.f;
+  window_8bit(s, -400, 1194);
+  const ScanLevels l = estimate_levels(s);
+  std::printf("[levels] %-28s %s\n", "dried, window -400/1194", describe(l).c_str());
+  ASSERT_TRUE(l.valid) << l.notes;
+  EXPECT_TRUE(l.dried);
+  EXPECT_FALSE(l.two_wood_modes);
+  EXPECT_NEAR(l.wood_hu, -600 + 159, 60);
+}
+
 TEST(ScanLevels, AirOnlyIsNotALog) {
   Slice s;
   s.width = s.height = 64;

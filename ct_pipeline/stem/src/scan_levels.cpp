@@ -94,10 +94,11 @@ ScanLevels estimate_levels(const Slice& slice, int samples) {
   const double bw = std::max(kMinBinHu, (hi - lo) / kMaxBins);
   const int nb = static_cast<int>((hi - lo) / bw) + 1;
   std::vector<double> raw(nb, 0.0);
-  int at_floor = 0;
+  int at_floor = 0, at_ceiling = 0;
   for (float q : v) {
     raw[std::min(nb - 1, static_cast<int>((q - lo) / bw))] += 1;
     at_floor += q == *mn;
+    at_ceiling += q == *mx;
   }
   const double total = static_cast<double>(v.size());
   // Smoothed histogram (zero beyond the range, so a spike at the floor stays a peak).
@@ -132,6 +133,9 @@ ScanLevels estimate_levels(const Slice& slice, int samples) {
     double m = 0;
     for (int k = a; k <= b; ++k) m += raw[k];
     if (m < kMinModeShare * total) continue;
+    // A spike of one value at the data's top is what a window or the scanner's range clipped
+    // (the bed, metal, dense knots in a windowed export), not a wood mode.
+    if (at_ceiling >= kMinModeShare * total && hi - (lo + (i + 0.5) * bw) <= 3 * kSmoothHu) continue;
     // Sub-bin position: parabola through the smoothed peak.
     double off = 0;
     if (i > 0 && i + 1 < nb) {
