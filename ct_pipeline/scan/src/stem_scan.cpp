@@ -95,6 +95,14 @@ constexpr double kWhorlReachMm = 300.0;     // meetings this close in z are comp
 constexpr double kWhorlNodeMm = 30.0;       // kept meetings this close in z are averaged
 constexpr double kOffsetDriftPerMm = 0.04;  // the pith-shape offset's change along a stem
 
+// The median of a contour's valid radii; 0 when none is valid (median of nothing).
+double median_radius(const std::vector<double>& radius, const std::vector<bool>& valid) {
+  std::vector<double> r;
+  for (size_t k = 0; k < radius.size(); ++k)
+    if (valid[k]) r.push_back(radius[k]);
+  return median(r);
+}
+
 struct WhorlOffsets {
   std::vector<double> z, e;  // nodes, ascending z
   std::vector<Vec2> o;
@@ -156,10 +164,7 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     if (!ok) ok = contour_centre(rec.centre, rec.contour.radius, rec.contour.valid, &c);
     if (!ok) continue;
     shape_raw[static_cast<size_t>(i)] = {c, 1.0, true};
-    std::vector<double> r;
-    for (size_t k = 0; k < rec.contour.radius.size(); ++k)
-      if (rec.contour.valid[k]) r.push_back(rec.contour.radius[k]);
-    radius[static_cast<size_t>(i)] = median(r);
+    radius[static_cast<size_t>(i)] = median_radius(rec.contour.radius, rec.contour.valid);
   }
   const std::vector<Vec2> shape = smooth_pith_track(z, shape_raw, options.track);
   if (shape.empty()) {
@@ -239,13 +244,10 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   for (int i = 0; i < n; ++i) {
     const StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
     if (!rec.measured || crops[static_cast<size_t>(i)].hu.empty()) continue;
-    double reg = 0.6 * radius[static_cast<size_t>(i)];
-    if (rec.heartwood.present) {
-      std::vector<double> hr;
-      for (size_t k = 0; k < rec.heartwood.radius.size(); ++k)
-        if (rec.heartwood.valid[k]) hr.push_back(rec.heartwood.radius[k]);
-      if (!hr.empty()) reg = 0.9 * median(hr);
-    }
+    const double heart = rec.heartwood.present
+                             ? median_radius(rec.heartwood.radius, rec.heartwood.valid)
+                             : 0.0;
+    const double reg = heart > 0 ? 0.9 * heart : 0.6 * radius[static_cast<size_t>(i)];
     region[static_cast<size_t>(i)] = reg;
     streaks[static_cast<size_t>(i)] =
         knot_streaks(crops[static_cast<size_t>(i)], g, shape[static_cast<size_t>(i)], reg, noise,

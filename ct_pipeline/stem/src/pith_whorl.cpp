@@ -185,14 +185,15 @@ WhorlPith meet_streaks(std::vector<WhorlStreak> streaks, std::vector<double> wei
   int best_count = 0;
   double best_cost = 0;
   Vec2 best;
-  std::vector<double> wts;
+  std::vector<double> wts, pair(m, 0.0);
   for (size_t a = 0; a < m; ++a)
     for (size_t b = a + 1; b < m; ++b) {
       if (line_angle(streaks[a], streaks[b]) < min_angle) continue;
-      std::vector<double> pair(m, 0.0);
       pair[a] = pair[b] = 1.0;
       Vec2 p;
-      if (!meet(streaks, pair, &p)) continue;
+      const bool met = meet(streaks, pair, &p);
+      pair[a] = pair[b] = 0.0;
+      if (!met) continue;
       if ((p - region_centre).norm() > region_radius_mm) continue;
       if (!fits(streaks[a], p) || !fits(streaks[b], p)) continue;
       const int count = inliers_of(p, &wts);
