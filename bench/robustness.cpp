@@ -2,15 +2,15 @@
 // (issue 19, item 3; docs/phantom.md "Condition space", docs/scan.md "Robustness sweep").
 //
 //   robustness [--quick] [--conditions N] [--slices S] [--seed S] [--preset P] [--logs L]
-//              [--only I] [--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1]
+//              [--only I[,J...]] [--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1]
 //              [--qa-csv FILE]
 //
 // Draws N conditions (seeded; condition i from its own stream, so `--only i` reproduces it),
 // each a log (the bundled gran1_spruce, pine_8, spruce_77 or a fresh sawyer::generate_log one),
 // a preset (pine, spruce, douglas: a Douglas-fir-like log with strong latewood) and every
 // condition of PhantomOptions from its realistic range. Each is rendered as a short section of S
-// slices in memory, scanned as `sawyer scan` does (ct::scan_log: the stem pass keeping the voxels, then
-// scan_knots) and measured against the phantom's truth. It prints every scan's figures, the
+// slices in memory, scanned as `sawyer scan` does (ct::scan_log: the stem pass keeping the voxels,
+// then scan_knots) and measured against the phantom's truth. It prints every scan's figures, the
 // pass rate of each stage against issue 20's targets, each failing condition with its
 // parameters, and the pass rate of each stage per bin of each drawn factor.
 // --true-stem 1 runs the knot pass on the phantom's true stem (pith, outline, heartwood) instead
@@ -378,12 +378,26 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
     auto add = [&](std::vector<double> rad, std::vector<bool> ok, auto truth_at, double& sum2,
                    long& count) {
       recentre_contour(rec.pith, want, rad, ok);
+      // SAWYER_OUTER_TRACE=1: per slice, the outline's error (RMS, mean, worst) and the levels
+      // it was found with, for diagnosing one condition.
+      const bool trace = std::getenv("SAWYER_OUTER_TRACE") && &sum2 == &r2;
+      double ts = 0, tmax = 0, tmean = 0;
+      int tn = 0, tk = -1;
       for (size_t k = 0; k < rad.size(); ++k) {
         if (!ok[k]) continue;
         const double d = rad[k] - truth_at(kTwoPi * k / rad.size());
         sum2 += d * d;
         ++count;
+        ts += d * d, tmean += d, ++tn;
+        if (std::abs(d) > std::abs(tmax)) tmax = d, tk = static_cast<int>(k);
       }
+      if (trace && tn)
+        std::fprintf(stderr,
+                     "  outer z %7.1f rms %.2f mean %+.2f worst %+.2f at %d deg, %d rays; centre "
+                     "off %.1f mm, bark %.0f HU, surface level %.0f HU\n",
+                     rec.z, std::sqrt(ts / tn), tmean / tn, tmax,
+                     tk * 360 / static_cast<int>(rad.size()), tn, (rec.centre - want).norm(),
+                     rec.contour.bark_hu, rec.contour.under_bark_hu);
     };
     add(
         rec.contour.radius, rec.contour.valid,
@@ -834,7 +848,7 @@ void write_qa_csv(const std::vector<Done>& done, const std::string& path) {
 int usage() {
   std::fprintf(stderr,
                "usage: robustness [--quick] [--conditions N] [--slices S] [--seed S] "
-               "[--preset pine|spruce|douglas|mixed] [--logs bundled|random|all] [--only I] "
+               "[--preset pine|spruce|douglas|mixed] [--logs bundled|random|all] [--only I[,J...]] "
                "[--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1] [--qa-csv FILE]\n");
   return 2;
 }
@@ -842,7 +856,8 @@ int usage() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int n_conditions = 200, slices = 40, threads = 2, only = -1;
+  int n_conditions = 200, slices = 40, threads = 2;
+  std::vector<int> only;  // --only I[,J...]: these conditions alone
   bool list = true, baseline = false, true_stem = false;
   std::uint64_t seed = 19;
   std::string preset = "mixed", logs_from = "all", qa_csv;
@@ -864,9 +879,16 @@ int main(int argc, char** argv) {
       preset = val;
     else if (k == "--logs")
       logs_from = val;
-    else if (k == "--only")
-      only = std::atoi(val);
-    else if (k == "--threads")
+    else if (k == "--only") {
+      for (const char* p = val; *p;) {
+        char* end = nullptr;
+        const long i = std::strtol(p, &end, 10);
+        if (end == p || i < 0) return usage();
+        only.push_back(static_cast<int>(i));
+        p = *end == ',' ? end + 1 : end;
+        if (*end && *end != ',') return usage();
+      }
+    } else if (k == "--threads")
       threads = std::atoi(val);
     else if (k == "--list")
       list = std::atoi(val) != 0;
@@ -903,7 +925,7 @@ int main(int argc, char** argv) {
   std::vector<Done> done;
   std::vector<LogModel> logs_of;
   for (int i = 0; i < n_conditions; ++i) {
-    if (only >= 0 && i != only) continue;
+    if (!only.empty() && std::find(only.begin(), only.end(), i) == only.end()) continue;
     Condition c = draw(i, seed, preset, logs_from);
     if (baseline) {  // the same log and section under the original phantom's defaults
       const std::uint64_t s = c.o.seed;

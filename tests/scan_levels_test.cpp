@@ -306,5 +306,24 @@ TEST(ScanLevels, StemPassOnCoarseNoisyCompressedCalibration) {
   EXPECT_LE(e.outer_rms, 3.5);
 }
 
+// A green log lying on the belt with its bark gone in many patches: the rays that measure the
+// bark level (just inside the log's edge with air) see bark, bare wood and the belt, and the bark
+// is not the most of them. Its level is the median of the rays that read bark, and the outline
+// is the wood's surface. (The median of all rays was the bare wood's: the bark counted as not
+// seen, the surface level went midway to air and the outline into the bark, +1.5 mm; and the
+// log threshold, above a green log's outer bark, read that bark as air.)
+TEST(ScanLevels, StemPassBarkOutnumberedByBeltAndBareWood) {
+  PhantomOptions o = small_options();
+  o.blur_px = 0.5;
+  o.bark_missing = 12;
+  const StemErrors e = stem_pass("pine_8", o, 1000, 1150);
+  std::printf(
+      "[levels] stem pass, bark missing in 12 patches, on the belt: outer RMS %.2f mm, "
+      "pith median %.2f mm; %s\n",
+      e.outer_rms, e.pith_median, describe(e.levels).c_str());
+  EXPECT_LE(e.outer_rms, 0.5);
+  EXPECT_LE(e.pith_median, 1.0);
+}
+
 }  // namespace
 }  // namespace sawyer::ct

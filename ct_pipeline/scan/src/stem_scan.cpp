@@ -474,6 +474,37 @@ ScannerFrame scanner_frame_of(const VolumeGeometry& g) {
 
 namespace {
 
+// A stem row (radius per azimuth) that leaves its neighbours along z: at each azimuth, a value
+// farther than kZOutlierMm (or kZOutlierShare of the radius) from the median of the rows within
+// kZOutlierHalf samples either side is replaced by that median. A slice whose outline took in a
+// chain lying on the log, or whose heartwood walk started there, does not carry into the model
+// (the knot pass reads its wood from the stem). Returns the values replaced.
+constexpr int kZOutlierHalf = 2;
+constexpr double kZOutlierMm = 5.0, kZOutlierShare = 0.05;
+int drop_z_outliers(std::vector<std::vector<double>>& rows) {
+  const int n = static_cast<int>(rows.size());
+  if (n < 2 * kZOutlierHalf + 1) return 0;
+  const std::vector<std::vector<double>> in = rows;
+  int replaced = 0;
+  std::vector<double> near;
+  for (int i = 0; i < n; ++i) {
+    const int a = std::max(0, std::min(i - kZOutlierHalf, n - 1 - 2 * kZOutlierHalf));
+    for (size_t k = 0; k < rows[static_cast<size_t>(i)].size(); ++k) {
+      near.clear();
+      for (int j = a; j <= a + 2 * kZOutlierHalf; ++j)
+        if (k < in[static_cast<size_t>(j)].size()) near.push_back(in[static_cast<size_t>(j)][k]);
+      std::nth_element(near.begin(), near.begin() + static_cast<long>(near.size() / 2), near.end());
+      const double m = near[near.size() / 2];
+      double& v = rows[static_cast<size_t>(i)][k];
+      if (std::abs(v - m) > std::max(kZOutlierMm, kZOutlierShare * m)) {
+        v = m;
+        ++replaced;
+      }
+    }
+  }
+  return replaced;
+}
+
 // Each slice's own levels (for its contour) from this many pixels: enough for the air and wood
 // modes (the scan's, from kLevelSamples each, are the reference), a small share of the slice's
 // time.
@@ -744,6 +775,13 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   }
   if (std::all_of(st.bark_mm.begin(), st.bark_mm.end(), [](double b) { return b <= 0; }))
     st.bark_mm.clear();
+  scan.outline_z_outliers = drop_z_outliers(st.radius);
+  if (!st.heartwood.empty()) {
+    scan.heartwood_z_outliers = drop_z_outliers(st.heartwood);
+    for (size_t i = 0; i < st.heartwood.size(); ++i)  // the heartwood lies inside the log
+      for (size_t k = 0; k < st.heartwood[i].size() && k < st.radius[i].size(); ++k)
+        st.heartwood[i][k] = std::min(st.heartwood[i][k], st.radius[i][k]);
+  }
   scan.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return scan;
 }

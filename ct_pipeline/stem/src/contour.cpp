@@ -12,6 +12,10 @@
 //      the bark (or air) 1 mm outside;
 //   3. bark: from the surface to the first crossing into air, where there is one before anything
 //      bright (the belt touching the bark hides it).
+// Each ray's walk starts 12 mm inside the previous ray's surface (from the pith when there is
+// none, or when that start is not in the wood); rays that found nothing from the pith (rot or a
+// heart check at the centre reads as air and stops the walk) are tried again, going round once
+// more, from the surface the ray before them found.
 // The levels (the wood/bark level, the wood range, air) are options: fixed HU for a green log at
 // the nominal calibration by default, from the scan's own levels in the stem pass
 // (scan_levels.h), with the bark measured on the slice (bark_level).
@@ -51,6 +55,13 @@ constexpr double kInsideNearMm = 0.8, kInsideFarMm = 4.0;
 // wood and it is crossed at or just outside the inner bark's edge).
 constexpr int kBarkStride = 8;
 constexpr double kBarkNearMm = 0.5, kBarkFarMm = 2.0;
+// The bark's edge with air is where a ray falls through the level kBarkAirShare of the way from
+// air to the densest wood mode, or kBarkAirSigmas noise sigmas above air where that is higher
+// (dry bark reads -650 to -800 HU, air -1000).
+constexpr double kBarkAirShare = 0.25, kBarkAirSigmas = 6.0;
+// Bark is read where at least this share of the bark rays show it (the rest: bark missing, the
+// bed), at least this share of the wood-air step under the densest wood.
+constexpr double kBarkRayShare = 0.2, kBarkStepShare = 0.1;
 // Sub-pixel refinement: outside level taken this far beyond the edge; search half-width; step.
 constexpr double kOutsideMm = 1.0, kFineHalfMm = 1.2, kFineStepMm = 0.1;
 // Bark: search this far beyond the surface for air.
@@ -281,11 +292,12 @@ bool robust_fourier(const std::vector<double>& r, const std::vector<bool>& valid
 
 // The slice's bark level: on every kBarkStride-th ray from the pith, the median of the profile
 // kBarkNearMm to kBarkFarMm (at least a pixel and a pixel and a half) inside the outermost fall
-// through the air/log threshold (the log's edge with air); the median over the rays. NaN when no
-// ray reached air. Each ray's walk starts kHintMm inside the previous one's edge when that is
-// in the log (the pith otherwise), as the contour's rays do.
+// through `air_edge` (the log's edge with air); over the rays, the median of those that read
+// bark (below the wood, above air), or of all where too few do. NaN when no ray reached air. Each
+// ray's walk starts kHintMm inside the previous one's edge when that is in the log (the pith
+// otherwise), as the contour's rays do.
 double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
-                  const ContourOptions& o, int* rays) {
+                  const ContourOptions& o, double air_edge, int* rays) {
   const int air_stop = static_cast<int>(std::ceil(kAirStopMm / h));
   const int hint_back = static_cast<int>(std::ceil(2 * kHintMm / h));
   const double near = std::max(kBarkNearMm, h), far = near + std::max(kBarkFarMm - kBarkNearMm, 1.5 * h);
@@ -302,7 +314,7 @@ double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
       for (int j = j0; j * h <= reach; ++j) {
         const float v = img.at(pith.x + j * h * c, pith.y + j * h * s);
         prof.push_back(v);
-        if (v < o.wood_hu) {
+        if (v < air_edge) {
           if (seen && ++air_run >= air_stop) break;
         } else {
           seen = true;
@@ -311,11 +323,11 @@ double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
       }
       e = -1;
       for (int j = static_cast<int>(prof.size()) - 2; j >= 0; --j)
-        if (prof[j] >= o.wood_hu && prof[j + 1] < o.wood_hu) {
+        if (prof[j] >= air_edge && prof[j + 1] < air_edge) {
           e = j;
           break;
         }
-      if (j0 > 0 && (e < 0 || prof[0] < o.wood_hu)) {  // the hint was not in the log
+      if (j0 > 0 && (e < 0 || prof[0] < air_edge)) {  // the hint was not in the log
         j0 = 0;
         continue;
       }
@@ -324,8 +336,8 @@ double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
     if (e < 0) continue;
     e += j0;
     hint = e;
-    const double re = e * h + h * (prof[e - j0] - o.wood_hu) /
-                                  std::max(1e-6f, prof[e - j0] - prof[e - j0 + 1]);
+    const double re =
+        e * h + h * (prof[e - j0] - air_edge) / std::max(1e-6f, prof[e - j0] - prof[e - j0 + 1]);
     if (re - far < 0.5 * re) continue;  // a small object: not the log's edge
     win.clear();
     for (double r = re - far; r <= re - near + 1e-9; r += 0.25)
@@ -333,7 +345,24 @@ double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
     per_ray.push_back(static_cast<float>(median_inplace(win)));
   }
   *rays = static_cast<int>(per_ray.size());
-  return per_ray.size() >= 3 ? median_inplace(per_ray) : NAN;
+  if (per_ray.size() < 3) return NAN;
+  // The rays read bark, wood where the bark is missing, or the bed's belt where the log lies on
+  // it: bark is what lies clearly under the wood (a tenth of the wood-air step, two standard
+  // errors of a ray's median) and above the edge with air. Where at least kBarkRayShare of the
+  // rays see such bark, its median is the level; else the median of all (the wood: no bark).
+  if (std::isfinite(o.outer_wood_hu)) {
+    const double window = (far - near) / 0.25 + 1;
+    const double below = o.outer_wood_hu - std::max(kBarkStepShare * (o.outer_wood_hu - o.air_hu),
+                                                    2.0 * o.noise_hu / std::sqrt(window));
+    std::vector<float> bark;
+    for (float v : per_ray)
+      if (v < below && v > air_edge) bark.push_back(v);
+    if (bark.size() >= 3 && bark.size() >= kBarkRayShare * per_ray.size()) {
+      *rays = static_cast<int>(bark.size());
+      return median_inplace(bark);
+    }
+  }
+  return median_inplace(per_ray);
 }
 
 }  // namespace
@@ -361,9 +390,21 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
   // this slice's bark when given, else the options' fixed level. The inside of a surface must be
   // at least as dense as the level (bark is not; wood is).
   double edge_level = options.under_bark_hu, wood_min = options.wood_min_hu;
+  // The log's edge with air, where rays stop after kAirStopMm below it: near air, below any bark
+  // or wood, from the scan's levels; else the options' air/log threshold. (The log threshold, 60 %
+  // of the way from air to the lightest wood mode, lies above a green log's outer bark when the
+  // log has no dry core, and above a dry core when the bark is the lightest mode: the bark was
+  // read as air and the wood under it as bark, or rays stopped in the heartwood.)
+  const double air_edge =
+      std::isfinite(options.outer_wood_hu)
+          ? std::min(
+                options.wood_hu,
+                options.air_hu + std::max(kBarkAirShare * (options.outer_wood_hu - options.air_hu),
+                                          kBarkAirSigmas * options.noise_hu))
+          : options.wood_hu;
   if (std::isfinite(options.outer_wood_hu)) {
     int rays = 0;
-    out.bark_hu = bark_level(img, pith_mm, reach, h, options, &rays);
+    out.bark_hu = bark_level(img, pith_mm, reach, h, options, air_edge, &rays);
     // The bark level is a median over many rays: lighter than the wood by a few of its standard
     // errors is bark (a dried log's bark is only 50-120 HU lighter than its wood, under 2 pixel
     // sigmas of a noisy scan). Where the bark is missing the outermost fall through any level
@@ -416,7 +457,9 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
   int found = 0;
   int hint = 0;  // the previous ray's edge (coarse index): the walk starts kHintMm inside it
   const int hint_back = static_cast<int>(std::ceil(kHintMm / h));
-  for (int k = 0; k < n; ++k) {
+  // One ray: its surface candidates, the surface (edge_r, valid), its bark; `hint` updated.
+  std::vector<int> coarse_edge(n, -1);
+  auto ray = [&](int k) {
     const double w = kTwoPi * k / n;
     const double c = std::cos(w), s = std::sin(w);
     int j0 = std::max(0, hint - hint_back);
@@ -431,7 +474,7 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
         const double r = j * h;
         const float v = img.at(pith_mm.x + r * c, pith_mm.y + r * s);
         prof.push_back(v);
-        if (v < options.wood_hu) {
+        if (v < air_edge) {
           if (seen && ++air_run >= air_stop) break;
         } else {
           seen = true;
@@ -469,12 +512,13 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
       }
       break;
     }
-    if (edge < 0) continue;
+    if (edge < 0) return;
     // From here on indices are from the pith.
     prof.insert(prof.begin(), j0, 0.0f);
     edge += j0;
     np += j0;
     hint = edge;
+    coarse_edge[k] = edge;
     // Sub-pixel: crossing of the level midway between inside and outside.
     const double rc =
         edge * h + h * (prof[edge] - edge_level) / std::max(1e-6f, prof[edge] - prof[edge + 1]);
@@ -493,6 +537,22 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
         out.bark_mm[k] = std::max(0.0, ro - best);
         break;
       }
+    }
+  };
+  for (int k = 0; k < n; ++k) ray(k);
+  // Rays that found no surface while the walk started from the pith (the first rays, or those
+  // after a failed run: rot or a crack at the centre reads as air and stops the walk) are tried
+  // again from the nearest surface found before them, going round once more.
+  if (found > 0 && found < n) {
+    int first = 0;
+    while (coarse_edge[first] < 0) ++first;
+    hint = coarse_edge[first];
+    for (int t = 1; t < n; ++t) {
+      const int k = (first + t) % n;
+      if (coarse_edge[k] >= 0)
+        hint = coarse_edge[k];
+      else
+        ray(k);
     }
   }
   if (found < kMinFoundFraction * n) {

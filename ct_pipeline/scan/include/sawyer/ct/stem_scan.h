@@ -150,6 +150,9 @@ struct StemScan {
   int pith_full_searches = 0;  // slices searched whole by the first track (lost or first)
   int pith_refinements = 0;    // ring-profile refinements, all passes
   int pith_refine_passes = 0;
+  // Stem values replaced because they left their neighbours along z (a chain on the log, a bad
+  // slice): outer radius and heartwood, in azimuth samples.
+  int outline_z_outliers = 0, heartwood_z_outliers = 0;
   PithSummary pith_summary;
   double slices_per_second() const { return seconds > 0 ? slices.size() / seconds : 0; }
 };
