@@ -398,6 +398,19 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
                      rec.z, std::sqrt(ts / tn), tmean / tn, tmax,
                      tk * 360 / static_cast<int>(rad.size()), tn, (rec.centre - want).norm(),
                      rec.contour.bark_hu, rec.contour.under_bark_hu);
+      if (trace && std::atoi(std::getenv("SAWYER_OUTER_TRACE")) >= 2) {
+        std::fprintf(stderr, "   by 15 deg:");
+        const size_t n = rad.size(), bin = std::max<size_t>(1, n / 24);
+        for (size_t b0 = 0; b0 < n; b0 += bin) {
+          double sb = 0;
+          int nb = 0;
+          for (size_t k = b0; k < std::min(n, b0 + bin); ++k)
+            if (ok[k]) sb += rad[k] - truth_at(kTwoPi * k / n), ++nb;
+          if (nb) std::fprintf(stderr, " %+.1f", sb / nb);
+          else std::fprintf(stderr, "  -");
+        }
+        std::fprintf(stderr, "\n");
+      }
     };
     add(
         rec.contour.radius, rec.contour.valid,
