@@ -232,7 +232,7 @@ struct Figures {
   // The figures it rests on (ScanQaDetail), for --qa-csv.
   double qa_pith_suspect = NAN, qa_pith_run_mm = NAN, qa_ring_share = NAN,
          qa_outline_suspect = NAN, qa_knots_per_m = NAN, qa_expected_median = NAN,
-         qa_expected_p95 = NAN, qa_resolved = NAN;
+         qa_expected_p95 = NAN, qa_resolved = NAN, qa_weak_bark = NAN, qa_bark_step = NAN, qa_bark_share = NAN;
   double seconds_render = 0, seconds_scan = 0;
   std::string knot_signal;  // the knot pass's noise, thresholds and ring rejections (stderr)
 };
@@ -251,6 +251,9 @@ void scan_qa(const ScanQaDetail& qa, Figures& f) {
   f.qa_expected_median = qa.pith_expected_median_mm;
   f.qa_expected_p95 = qa.pith_expected_p95_mm;
   f.qa_resolved = qa.rings_resolved_share;
+  f.qa_weak_bark = qa.outline_weak_bark_share;
+  f.qa_bark_step = qa.outline_bark_step_sigmas;
+  f.qa_bark_share = qa.outline_bark_step_share;
 }
 
 // Narrowest ring within 20 mm of the pith, in pixels, from the drawn width profile (linear from
@@ -400,12 +403,12 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
                      rec.contour.bark_hu, rec.contour.under_bark_hu);
       if (trace && std::atoi(std::getenv("SAWYER_OUTER_TRACE")) >= 2) {
         std::fprintf(stderr, "   by 15 deg:");
-        const size_t n = rad.size(), bin = std::max<size_t>(1, n / 24);
-        for (size_t b0 = 0; b0 < n; b0 += bin) {
+        const size_t na = rad.size(), bin = std::max<size_t>(1, na / 24);
+        for (size_t b0 = 0; b0 < na; b0 += bin) {
           double sb = 0;
           int nb = 0;
-          for (size_t k = b0; k < std::min(n, b0 + bin); ++k)
-            if (ok[k]) sb += rad[k] - truth_at(kTwoPi * k / n), ++nb;
+          for (size_t k = b0; k < std::min(na, b0 + bin); ++k)
+            if (ok[k]) sb += rad[k] - truth_at(kTwoPi * k / na), ++nb;
           if (nb) std::fprintf(stderr, " %+.1f", sb / nb);
           else std::fprintf(stderr, "  -");
         }
@@ -435,6 +438,16 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
   const KnotMatch m = match_knots(sr.knots.knots, truth.knots, truth.stem, mo);
   f.truth_big = m.truth_counted, f.found_big = m.truth_found;
   f.found = m.found, f.spurious = m.spurious;
+  if (std::getenv("SAWYER_KNOT_TRACE")) {  // each spurious and missed knot, for one condition
+    for (const auto& st : ph->streaks())
+      std::fprintf(stderr, "  streaks at (%.0f, %.0f) mm, z %.0f-%.0f mm, %zu lines\n", st.centre.x,
+                   st.centre.y, st.z_min, st.z_max, st.angles.size());
+    for (const auto& co : ph->clutter())
+      std::fprintf(stderr, "  clutter %s at (%.0f, %.0f, %.0f), z %.0f-%.0f mm\n", co.kind.c_str(),
+                   co.centre.x, co.centre.y, co.centre.z, co.z_min, co.z_max);
+    for (const std::string& l : m.spurious_list) std::fprintf(stderr, "  spurious: %s\n", l.c_str());
+    for (const std::string& l : m.missed) std::fprintf(stderr, "  missed: %s\n", l.c_str());
+  }
   f.recall = m.recall(), f.precision = m.precision();
   f.diam_rmse = m.diameter_rmse();
   f.diam_sum2 = m.diameter_sum2, f.diam_count = m.diameter_count;
@@ -837,7 +850,7 @@ void write_qa_csv(const std::vector<Done>& done, const std::string& path) {
   }
   std::fprintf(out, "id,error,fails,fails_pith,fails_outline,fails_knots,flagged,pith_suspect,"
                     "pith_run_mm,ring_share,outline_suspect,knots_per_m,pith_median,outer_rms,"
-                    "expected_median,expected_p95,resolved_share,pith_p95,fine\n");
+                    "expected_median,expected_p95,resolved_share,pith_p95,fine,weak_bark,bark_step,bark_share\n");
   for (const Done& d : done) {
     if (d.f.excluded) continue;
     std::string failed;
@@ -847,13 +860,13 @@ void write_qa_csv(const std::vector<Done>& done, const std::string& path) {
       failed = "1";
       (k <= 2 ? fp : (k <= 4 ? fo : fk)) = true;
     }
-    std::fprintf(out, "%d,%d,%d,%d,%d,%d,%d,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%d\n", d.c.id,
+    std::fprintf(out, "%d,%d,%d,%d,%d,%d,%d,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%d,%g,%g,%g\n", d.c.id,
                  !d.f.error.empty(),
                  !failed.empty() || !d.f.error.empty(), fp, fo, fk, d.f.flagged.value_or(false),
                  d.f.qa_pith_suspect, d.f.qa_pith_run_mm, d.f.qa_ring_share,
                  d.f.qa_outline_suspect, d.f.qa_knots_per_m, d.f.pith_median, d.f.outer_rms,
                  d.f.qa_expected_median, d.f.qa_expected_p95, d.f.qa_resolved, d.f.pith_p95,
-                 d.f.fine);
+                 d.f.fine, d.f.qa_weak_bark, d.f.qa_bark_step, d.f.qa_bark_share);
   }
   std::fclose(out);
 }

@@ -163,6 +163,52 @@ TEST(AssessScan, AJumpingOutlineFailsTheOutlineStage) {
   EXPECT_GT(d.slices[3].jump_mm_per_mm, 1.0);
 }
 
+TEST(AssessScan, BarkBarelyLighterThanTheWoodFailsTheOutlineStage) {
+  // A green log: bark 400 HU under the sapwood (-50), 20 HU of noise: the edge level is clear.
+  StemScan s = sound_scan();
+  for (auto& r : s.slices) {
+    r.contour.bark_hu = -450;
+    r.contour.under_bark_hu = 0.5 * (-50 - 450);
+  }
+  ScanQaDetail d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_TRUE(stage(d.verdict, "outline").ok) << qa_headline(d.verdict);
+  EXPECT_NEAR(d.outline_bark_step_sigmas, 20.0, 1e-9);
+  EXPECT_EQ(d.outline_weak_bark_share, 0.0);
+  // Bark well out of the noise (a quiet scan, 5 HU) but only 60 HU under the wood: nearly as
+  // dense as the wood, the bark's own gradient moves the edge.
+  s.levels.noise_air_hu = s.levels.noise_wood_hu = 5;
+  for (auto& r : s.slices) {
+    r.contour.bark_hu = -110;
+    r.contour.under_bark_hu = -80;
+  }
+  d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_FALSE(stage(d.verdict, "outline").ok);
+  EXPECT_NEAR(d.outline_bark_step_sigmas, 12.0, 1e-9);
+  // A dried log: wood -600, bark -650, wood spread 30 HU (noise and rings): under 2 sigmas,
+  // and 12 % of the wood-air span.
+  s.levels.wood_hu = s.levels.wood_high_hu = s.levels.wood_low_hu = -600;
+  s.levels.two_wood_modes = false;
+  s.levels.noise_wood_hu = 30;
+  for (auto& r : s.slices) {
+    r.contour.bark_hu = -650;
+    r.contour.under_bark_hu = -625;
+  }
+  d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_FALSE(d.verdict.trusted);
+  EXPECT_FALSE(stage(d.verdict, "outline").ok);
+  EXPECT_NEAR(d.slices[7].bark_step_sigmas, 50.0 / 30.0, 1e-9);
+  EXPECT_NEAR(d.slices[7].bark_step_share, 50.0 / 400.0, 1e-9);
+  EXPECT_EQ(d.outline_weak_bark_share, 1.0);
+  ASSERT_FALSE(d.verdict.warnings.empty());
+  EXPECT_NE(d.verdict.warnings[0].find("outline under bark uncertain"), std::string::npos)
+      << d.verdict.warnings[0];
+  // No bark seen (a debarked log: the edge level midway to air) is no doubt about the bark.
+  for (auto& r : s.slices) r.contour.under_bark_hu = 0.5 * (-600 - 1000);
+  d = assess_scan(s, nullptr, geometry_of(40));
+  EXPECT_TRUE(stage(d.verdict, "outline").ok) << qa_headline(d.verdict);
+  EXPECT_TRUE(std::isnan(d.outline_bark_step_sigmas));
+}
+
 TEST(AssessScan, HundredsOfKnotsPerMetreFailTheKnotStage) {
   const StemScan s = sound_scan();  // 200 mm of log: 0.5 m counted
   KnotScan k;
@@ -273,6 +319,140 @@ TEST(ScanLog, ADefaultPhantomSectionIsScannedAndTrusted) {
   EXPECT_LT(err[err.size() / 2], 0.5);
   EXPECT_NEAR(s.log.stem.pith[0].x, s.stem.stem.pith[0].x + g.origin.x, 1e-9);
   EXPECT_NE(scan_brief(s, "section").find("QA: trusted"), std::string::npos);
+}
+
+// The outline's RMS error (mm) against the phantom's truth over the scanned slices.
+double outline_rms(const ScanResult& s, const LogModel& truth) {
+  double sum2 = 0;
+  long n = 0;
+  for (const StemSliceRecord& rec : s.stem.slices) {
+    if (!rec.measured) continue;
+    const size_t na = rec.contour.radius.size();
+    for (size_t k = 0; k < na; ++k) {
+      if (!rec.contour.valid[k]) continue;
+      const double w = kTwoPi * static_cast<double>(k) / static_cast<double>(na);
+      const Vec2 p = rec.pith + rec.contour.radius[k] * Vec2{std::cos(w), std::sin(w)};
+      const Vec2 c = truth.stem.pith_at(rec.z);
+      const Vec2 d = p - c;
+      const double e = d.norm() - truth.stem.radius_at(std::atan2(d.y, d.x), rec.z);
+      sum2 += e * e, ++n;
+    }
+  }
+  return n ? std::sqrt(sum2 / static_cast<double>(n)) : NAN;
+}
+
+TEST(ScanLog, TheOutlineStageFlagsADriedLogsUnderBarkEdgeAndNotAGreenOnes) {
+  // One section green, dried with faint rings, and dried with a Douglas fir's ring swing (200 HU)
+  // and more noise. A dried log's bark is only 50-120 HU lighter than its wood (a green log's,
+  // some 400 HU under the sapwood), so the edge level lands in the bark's own gradient: the
+  // outline stage must fail where the outline is off (RMS over 0.7 mm against the truth) and
+  // pass where it is right (under 0.4 mm).
+  const LogModel& truth_log = test::sample_model("pine_8");
+  int flagged = 0;
+  for (int c = 0; c < 3; ++c) {
+    SCOPED_TRACE(c == 0 ? "green" : c == 1 ? "dried, faint rings" : "dried, strong rings");
+    PhantomOptions o;
+    o.image_size = 360;
+    o.pixel_mm = 0.8;
+    o.slice_spacing_mm = 5.0;
+    o.from_mm = 1500;
+    o.to_mm = 1650;
+    o.threads = 1;
+    if (c > 0) o.moisture = Moisture::kDried;
+    if (c == 2) o.ring_contrast_hu = 200, o.noise_hu = 35, o.ring_width_mm = 1.5;
+    auto ph = Phantom::create(truth_log, o);
+    ASSERT_TRUE(ph) << ph.error().message();
+    PhantomSource src(*ph.value(), true);
+    auto r = scan_log(src, ScanOptions{});
+    ASSERT_TRUE(r) << r.error().message();
+    const ScanResult& s = r.value();
+    ASSERT_TRUE(s.log.qa.has_value());
+    const double rms = outline_rms(s, ph.value()->truth_log());
+    const ScanQa::Stage& outline = stage(*s.log.qa, "outline");
+    std::string notes;
+    for (const auto& n : outline.notes) notes += n + "; ";
+    if (rms < 0.4) {
+      EXPECT_TRUE(outline.ok) << "RMS " << rms << " mm: " << notes;
+    }
+    if (rms > 0.7) {
+      EXPECT_FALSE(outline.ok) << "RMS " << rms << " mm: " << notes;
+      const auto& w = s.log.qa->warnings;
+      EXPECT_TRUE(std::any_of(w.begin(), w.end(), [](const std::string& x) {
+        return x.find("outline under bark uncertain") != std::string::npos;
+      })) << qa_headline(*s.log.qa);
+    }
+    if (c == 0) {
+      EXPECT_LT(rms, 0.4);  // the green section's outline is right
+    }
+    flagged += !outline.ok;
+  }
+  EXPECT_GE(flagged, 1);  // at least one of the dried sections was off and said so
+}
+
+// A phantom source whose slice `bad` has everything beyond `keep_mm` of the log's pith erased
+// to air: one slice whose outline collapses (a reconstruction fault, a chain read as the edge).
+class OneBadSlice : public SliceSource {
+ public:
+  OneBadSlice(PhantomSource& src, const LogModel& truth, int bad, double keep_mm)
+      : src_(src), truth_(truth), bad_(bad), keep_(keep_mm) {}
+  Format format() const override { return src_.format(); }
+  const VolumeGeometry& geometry() const override { return src_.geometry(); }
+  std::string description() const override { return src_.description(); }
+  const std::vector<std::string>& notes() const override { return src_.notes(); }
+  Status read(int i, Slice& out) override {
+    if (Status st = src_.read(i, out); !st) return st;
+    if (i != bad_) return {};
+    const VolumeGeometry& g = geometry();
+    const Vec2 c = truth_.stem.pith_at(g.z[static_cast<size_t>(i)]);
+    for (int y = 0; y < out.height; ++y)
+      for (int x = 0; x < out.width; ++x)
+        if ((Vec2{x * g.spacing_x, y * g.spacing_y} - c).norm() > keep_)
+          out.hu[static_cast<size_t>(y) * out.width + x] = -1000.0f;
+    return {};
+  }
+
+ private:
+  PhantomSource& src_;
+  const LogModel& truth_;
+  int bad_;
+  double keep_;
+};
+
+TEST(ScanLog, AnOutlineThatLeavesItsNeighboursIsReplacedInTheModelAndTheRecord) {
+  const LogModel& truth_log = test::sample_model("pine_8");
+  PhantomOptions o;
+  o.image_size = 320;
+  o.pixel_mm = 1.0;
+  o.slice_spacing_mm = 5.0;
+  o.from_mm = 1500;
+  o.to_mm = 1650;
+  o.threads = 1;
+  auto ph = Phantom::create(truth_log, o);
+  ASSERT_TRUE(ph) << ph.error().message();
+  PhantomSource inner(*ph.value(), true);
+  const LogModel truth = ph.value()->truth_log();
+  OneBadSlice src(inner, truth, 12, 60.0);
+  auto r = scan_log(src, ScanOptions{});
+  ASSERT_TRUE(r) << r.error().message();
+  const ScanResult& s = r.value();
+  EXPECT_GT(s.stem.outline_z_outliers, 100);  // most of the bad slice's 360 azimuths
+  // The bad slice's record and its stem row both follow its neighbours, not the 60 mm cut.
+  const StemSliceRecord& bad = s.stem.slices[12];
+  int checked = 0;
+  for (size_t k = 0; k < bad.contour.radius.size(); k += 10) {
+    if (!bad.contour.valid[k]) continue;
+    const double w = kTwoPi * static_cast<double>(k) / static_cast<double>(bad.contour.radius.size());
+    EXPECT_NEAR(bad.contour.radius[k], s.stem.slices[11].contour.radius[k], 6.0) << "azimuth " << k;
+    EXPECT_GT(bad.contour.radius[k], 80.0) << "azimuth " << k << " at " << w;
+    ++checked;
+  }
+  EXPECT_GT(checked, 10);
+  const std::string notes = [&] {
+    std::string n;
+    for (const auto& x : stage(*s.log.qa, "outline").notes) n += x + "; ";
+    return n;
+  }();
+  EXPECT_NE(notes.find("outline values left their neighbours"), std::string::npos) << notes;
 }
 
 }  // namespace

@@ -454,8 +454,9 @@ struct Blob {
 // the log (taller than sheet_z_mm and 2.5 times its width) or round it (wider than sheet_arc_mm
 // and three times its height, beyond the whorls near the pith where a whorl's knots merge into
 // one band) is part of a sheet: a latewood band the ring levels did not take out (a ring that
-// wanders off the outline's shape, the pith's error), the heartwood border. Those are counted in
-// *sheets and left out.
+// wanders off the outline's shape, the pith's error), the heartwood border. A blob much taller
+// than wide (KnotDetectOptions::streak_*) is a line repeated over slices: a metal streak. Those
+// are counted in *sheets and left out.
 std::vector<Blob> label_shell(const Grid& g, int j, double low, double high, double min_area,
                               double dz, const KnotDetectOptions& o, int* sheets) {
   std::vector<Blob> out;
@@ -501,7 +502,8 @@ std::vector<Blob> label_shell(const Grid& g, int j, double low, double high, dou
     for (int p : b.pix) col[static_cast<size_t>(p % g.nw)] = 0;
     const double height = g.z[static_cast<size_t>(i1)] - g.z[static_cast<size_t>(i0)] + dz;
     const double width = cols * g.r(j) * g.dw;
-    const bool along = height > std::max(o.sheet_z_mm, 2.5 * width);
+    const bool along = height > std::max(o.sheet_z_mm, 2.5 * width) ||
+                       height - 2 * dz > std::max(o.streak_min_z_mm, o.streak_ratio * width);
     const bool round = g.r(j) >= o.sheet_min_r_mm && width > std::max(o.sheet_arc_mm, 3 * height);
     if (along || round) {
       ++*sheets;

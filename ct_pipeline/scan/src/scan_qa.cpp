@@ -115,6 +115,8 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
   };
   std::vector<double> shares;
   int measured = 0, pith_suspects = 0, outline_suspects = 0, at_edge = 0;
+  int bark_seen = 0, weak_bark = 0;
+  std::vector<double> bark_steps, bark_shares;
   const StemSliceRecord* prev = nullptr;
   for (size_t i = 0; i < n; ++i) {
     const StemSliceRecord& r = scan.slices[i];
@@ -198,6 +200,22 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       }
       q.at_edge_share = seen ? static_cast<double>(edge) / seen : 0.0;
       if (q.at_edge_share > o.outline_max_at_edge) ++at_edge;
+    }
+    // The bark's step under the outer wood, in the wood's own spread (the levels this slice's
+    // contour used: its own where they agree with the scan's).
+    if (scan.levels.valid && std::isfinite(r.contour.bark_hu) && std::isfinite(r.contour.under_bark_hu)) {
+      const ScanLevels used = slice_levels_or_scan(r.levels, scan.levels);
+      const double to_air = 0.5 * (used.wood_high_hu + used.air_hu);
+      if (std::abs(r.contour.under_bark_hu - to_air) > 1e-3) {  // bark seen (else: the air edge)
+        ++bark_seen;
+        const double step = used.wood_high_hu - r.contour.bark_hu;
+        q.bark_step_sigmas = step / std::max(1.0, used.noise_hu());
+        q.bark_step_share = step / std::max(1.0, used.wood_high_hu - used.air_hu);
+        bark_steps.push_back(q.bark_step_sigmas);
+        bark_shares.push_back(q.bark_step_share);
+        weak_bark += q.bark_step_sigmas < o.outline_min_bark_sigmas ||
+                     q.bark_step_share < o.outline_min_bark_share;
+      }
     }
     q.outline_suspect = q.at_edge_share > o.outline_max_at_edge ||
                         q.filled_share > o.outline_max_filled ||
@@ -343,6 +361,24 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                   median_of(rough), pct(median_of(fill)).c_str());
     st.notes.push_back(line);
     st.confidence = std::clamp(1.0 - d.outline_suspect_share, 0.0, 1.0);
+    if (scan.outline_z_outliers > 0) {
+      std::snprintf(line, sizeof line,
+                    "%d outline values left their neighbours along z and were replaced by their "
+                    "median (a chain on the log, a bad slice)",
+                    scan.outline_z_outliers);
+      st.notes.push_back(line);
+    }
+    if (bark_seen > 0) {
+      d.outline_weak_bark_share = static_cast<double>(weak_bark) / bark_seen;
+      d.outline_bark_step_sigmas = median_of(bark_steps);
+      d.outline_bark_step_share = median_of(bark_shares);
+      std::snprintf(line, sizeof line,
+                    "bark seen on %d of %d slices, lighter than the outer wood by %.1f noise sigmas "
+                    "and %.0f %% of the wood-air span (medians)",
+                    bark_seen, measured, d.outline_bark_step_sigmas,
+                    100 * d.outline_bark_step_share);
+      st.notes.push_back(line);
+    }
     d.outline_at_edge_share = measured ? static_cast<double>(at_edge) / measured : 0.0;
     if (measured > 0 && at_edge >= std::min(2, measured)) {  // one slice can be a log end's odd shape
       st.ok = false;
@@ -351,6 +387,16 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                             " slices: cut by the field of view, its outline there is the image's";
       st.notes.push_back(w);
       warnings.push_back(w);
+    } else if (bark_seen > 0 && d.outline_weak_bark_share > o.outline_max_weak_bark_share) {
+      st.ok = false;
+      st.confidence = std::min(st.confidence, 0.5);
+      std::snprintf(line, sizeof line,
+                    "outline under bark uncertain: the bark is barely lighter than the outer wood "
+                    "(%.1f noise sigmas, %.0f %% of the wood-air span) on %s of the slices where "
+                    "bark was seen (a dried log?), so the edge may lie anywhere in the bark",
+                    d.outline_bark_step_sigmas, 100 * d.outline_bark_step_share,
+                    pct(d.outline_weak_bark_share).c_str());
+      warnings.push_back(line);
     } else if (measured > 0 && d.outline_suspect_share > o.outline_max_suspect_share) {
       st.ok = false;
       warnings.push_back("outline uncertain on " + pct(d.outline_suspect_share) +

@@ -474,25 +474,39 @@ ScannerFrame scanner_frame_of(const VolumeGeometry& g) {
 
 namespace {
 
-// A stem row (radius per azimuth) that leaves its neighbours along z: at each azimuth, a value
-// farther than kZOutlierMm (or kZOutlierShare of the radius) from the median of the rows within
-// kZOutlierHalf samples either side is replaced by that median. A slice whose outline took in a
-// chain lying on the log, or whose heartwood walk started there, does not carry into the model
-// (the knot pass reads its wood from the stem). Returns the values replaced.
+// A stem row (radius per azimuth around its slice's pith) that leaves its neighbours along z: at
+// each azimuth, a value farther than kZOutlierMm (or kZOutlierShare of the radius) from the
+// median of the rows within kZOutlierHalf samples either side, each re-expressed around this
+// row's pith (the pith moves between slices, and the radius at one azimuth with it), is
+// replaced by that median. A slice whose outline took in a chain lying on the log, or whose
+// heartwood walk started there, does not carry into the model (the knot pass reads its wood
+// from the stem). Returns the values replaced.
 constexpr int kZOutlierHalf = 2;
 constexpr double kZOutlierMm = 5.0, kZOutlierShare = 0.05;
-int drop_z_outliers(std::vector<std::vector<double>>& rows) {
+int drop_z_outliers(std::vector<std::vector<double>>& rows, const std::vector<Vec2>& piths) {
   const int n = static_cast<int>(rows.size());
-  if (n < 2 * kZOutlierHalf + 1) return 0;
+  if (n < 2 * kZOutlierHalf + 1 || piths.size() != rows.size()) return 0;
   const std::vector<std::vector<double>> in = rows;
   int replaced = 0;
   std::vector<double> near;
+  std::vector<std::vector<double>> around(2 * kZOutlierHalf + 1);
   for (int i = 0; i < n; ++i) {
     const int a = std::max(0, std::min(i - kZOutlierHalf, n - 1 - 2 * kZOutlierHalf));
+    for (int j = a; j <= a + 2 * kZOutlierHalf; ++j) {
+      std::vector<double>& r = around[static_cast<size_t>(j - a)];
+      r = in[static_cast<size_t>(j)];
+      if (j != i) {
+        std::vector<bool> ok(r.size(), true);
+        recentre_contour(piths[static_cast<size_t>(j)], piths[static_cast<size_t>(i)], r, ok);
+        for (size_t k = 0; k < r.size(); ++k)
+          if (!ok[k]) r[k] = NAN;
+      }
+    }
     for (size_t k = 0; k < rows[static_cast<size_t>(i)].size(); ++k) {
       near.clear();
-      for (int j = a; j <= a + 2 * kZOutlierHalf; ++j)
-        if (k < in[static_cast<size_t>(j)].size()) near.push_back(in[static_cast<size_t>(j)][k]);
+      for (const std::vector<double>& r : around)
+        if (k < r.size() && std::isfinite(r[k])) near.push_back(r[k]);
+      if (near.size() < 3) continue;
       std::nth_element(near.begin(), near.begin() + static_cast<long>(near.size() / 2), near.end());
       const double m = near[near.size() / 2];
       double& v = rows[static_cast<size_t>(i)][k];
@@ -775,12 +789,28 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   }
   if (std::all_of(st.bark_mm.begin(), st.bark_mm.end(), [](double b) { return b <= 0; }))
     st.bark_mm.clear();
-  scan.outline_z_outliers = drop_z_outliers(st.radius);
+  scan.outline_z_outliers = drop_z_outliers(st.radius, st.pith);
   if (!st.heartwood.empty()) {
-    scan.heartwood_z_outliers = drop_z_outliers(st.heartwood);
+    scan.heartwood_z_outliers = drop_z_outliers(st.heartwood, st.pith);
     for (size_t i = 0; i < st.heartwood.size(); ++i)  // the heartwood lies inside the log
       for (size_t k = 0; k < st.heartwood[i].size() && k < st.radius[i].size(); ++k)
         st.heartwood[i][k] = std::min(st.heartwood[i][k], st.radius[i][k]);
+  }
+  // The records say what the model says: a measured value the stem replaced is replaced in its
+  // slice's record too (the QA images, the QA verdict's per-slice checks and the benches read
+  // the records).
+  const auto write_back = [](const std::vector<double>& row, std::vector<double>& radius,
+                             const std::vector<bool>& valid) {
+    if (row.size() != radius.size() || valid.size() != radius.size()) return;
+    for (size_t k = 0; k < row.size(); ++k)
+      if (valid[k]) radius[k] = row[k];
+  };
+  for (int i = lo; i <= hi; ++i) {
+    StemSliceRecord& rec = scan.slices[i];
+    const size_t row = static_cast<size_t>(i - lo);
+    write_back(st.radius[row], rec.contour.radius, rec.contour.valid);
+    if (!st.heartwood.empty() && rec.heartwood.present)
+      write_back(st.heartwood[row], rec.heartwood.radius, rec.heartwood.valid);
   }
   scan.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return scan;

@@ -54,6 +54,13 @@ struct KnotDetectOptions {
   // cut into arcs; a run (with its followed part) shorter along r than min_length_diameters
   // times its median diameter is a pocket (resin, wet wood, rot), not a branch.
   double sheet_z_mm = 60;
+  // A blob whose z span (less two slice spacings, the slices' partial volume) is over
+  // streak_min_z_mm and streak_ratio times its width is a line, not a knot's cross-section
+  // (a knot rising at the steepest max_axis_slope is at most sqrt(1 + 4) = 2.24 times as tall
+  // as wide): a metal streak repeated over the slices of a nail or a chain link, a crack's
+  // dense rim, a ring seen edge-on where the pith is off.
+  double streak_min_z_mm = 20;
+  double streak_ratio = 4;
   double sheet_arc_mm = 60;
   double sheet_min_r_mm = 30;
   double max_arc_slope = 2;

@@ -15,6 +15,7 @@
 // QaOptions and documented with the sweep that calibrated them (docs/scan.md "QA verdict").
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,17 @@ struct QaOptions {
   // this share of a slice's outline lies within 1.5 pixels of the image's edge: the outline there
   // is the image's, not the log's.
   double outline_max_at_edge = 0.02;
+  // The under-bark edge is a level midway between the outer wood and the bark. It is uncertain
+  // where the bark is lighter than the wood by fewer than outline_min_bark_sigmas of the wood's
+  // own spread (noise and ring texture, ScanLevels::noise_wood_hu: a ring's latewood swing is
+  // as large as the wood-bark step), or by less than outline_min_bark_share of the wood-air
+  // span: bark nearly as dense as the wood (a dried log: wood about -600 HU, bark 50-120 HU
+  // lighter, against 400-500 HU under a green log's sapwood), so the bark's own gradient from
+  // its dense inner layer to its light outer one moves the crossing into the bark. The stage
+  // fails when more than outline_max_weak_bark_share of the slices where bark was seen are so.
+  double outline_min_bark_sigmas = 3.0;
+  double outline_min_bark_share = 0.3;
+  double outline_max_weak_bark_share = 0.5;
   // Knots: more than this many per metre (of a section at least 0.5 m long) is not a log's.
   double knots_max_per_m = 60.0;
 };
@@ -84,6 +96,10 @@ struct QaSlice {
   double roughness_mm = 0;
   double jump_mm_per_mm = 0;
   double at_edge_share = 0;      // outline azimuths at the image's edge
+  // Outer wood minus this slice's bark level, over the wood's spread and as a share of the
+  // wood-air span (NaN where no bark was seen: a debarked log, or bark no lighter than the wood).
+  double bark_step_sigmas = std::numeric_limits<double>::quiet_NaN();
+  double bark_step_share = std::numeric_limits<double>::quiet_NaN();
   bool outline_suspect = false;
 };
 
@@ -99,6 +115,11 @@ struct ScanQaDetail {
   bool coarse = false;
   double outline_suspect_share = 0;
   double outline_at_edge_share = 0;  // slices cut by the image's edge
+  // Of the slices where bark was seen, the share whose bark step is weak (QaOptions); the median
+  // step in noise sigmas and as a share of the wood-air span (NaN when no bark was seen).
+  double outline_weak_bark_share = 0;
+  double outline_bark_step_sigmas = std::numeric_limits<double>::quiet_NaN();
+  double outline_bark_step_share = std::numeric_limits<double>::quiet_NaN();
   double knots_per_m = 0;
   int knot_candidates_rejected = 0;          // traces not fitted
   int knot_candidates_rejected_as_rings = 0;  // shaped as rings (KnotScan::rejected_as_rings)
