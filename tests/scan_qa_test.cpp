@@ -68,6 +68,18 @@ VolumeGeometry geometry_of(int n) {
   return g;
 }
 
+// A 150-200 mm section of the bundled pine at 5 mm slices, one thread.
+PhantomOptions section_options(int image_size, double pixel_mm, double to_mm) {
+  PhantomOptions o;
+  o.image_size = image_size;
+  o.pixel_mm = pixel_mm;
+  o.slice_spacing_mm = 5.0;
+  o.from_mm = 1500;
+  o.to_mm = to_mm;
+  o.threads = 1;
+  return o;
+}
+
 const ScanQa::Stage& stage(const ScanQa& qa, const std::string& name) {
   for (const auto& s : qa.stages)
     if (s.name == name) return s;
@@ -169,6 +181,7 @@ TEST(AssessScan, BarkBarelyLighterThanTheWoodFailsTheOutlineStage) {
   for (auto& r : s.slices) {
     r.contour.bark_hu = -450;
     r.contour.under_bark_hu = 0.5 * (-50 - 450);
+    r.contour.bark_seen = true;
   }
   ScanQaDetail d = assess_scan(s, nullptr, geometry_of(40));
   EXPECT_TRUE(stage(d.verdict, "outline").ok) << qa_headline(d.verdict);
@@ -203,7 +216,10 @@ TEST(AssessScan, BarkBarelyLighterThanTheWoodFailsTheOutlineStage) {
   EXPECT_NE(d.verdict.warnings[0].find("outline under bark uncertain"), std::string::npos)
       << d.verdict.warnings[0];
   // No bark seen (a debarked log: the edge level midway to air) is no doubt about the bark.
-  for (auto& r : s.slices) r.contour.under_bark_hu = 0.5 * (-600 - 1000);
+  for (auto& r : s.slices) {
+    r.contour.under_bark_hu = 0.5 * (-600 - 1000);
+    r.contour.bark_seen = false;
+  }
   d = assess_scan(s, nullptr, geometry_of(40));
   EXPECT_TRUE(stage(d.verdict, "outline").ok) << qa_headline(d.verdict);
   EXPECT_TRUE(std::isnan(d.outline_bark_step_sigmas));
@@ -289,13 +305,7 @@ TEST(ScanQaJson, RoundTripsThroughLogJsonAndRefusesBadObjects) {
 // pith where the truth has it, and the verdict trusts it.
 TEST(ScanLog, ADefaultPhantomSectionIsScannedAndTrusted) {
   const LogModel& truth_log = test::sample_model("pine_8");
-  PhantomOptions o;
-  o.image_size = 320;
-  o.pixel_mm = 1.0;
-  o.slice_spacing_mm = 5.0;
-  o.from_mm = 1500;
-  o.to_mm = 1700;
-  o.threads = 1;
+  const PhantomOptions o = section_options(320, 1.0, 1700);
   auto ph = Phantom::create(truth_log, o);
   ASSERT_TRUE(ph) << ph.error().message();
   PhantomSource src(*ph.value(), true);
@@ -351,13 +361,7 @@ TEST(ScanLog, TheOutlineStageFlagsADriedLogsUnderBarkEdgeAndNotAGreenOnes) {
   int flagged = 0;
   for (int c = 0; c < 3; ++c) {
     SCOPED_TRACE(c == 0 ? "green" : c == 1 ? "dried, faint rings" : "dried, strong rings");
-    PhantomOptions o;
-    o.image_size = 360;
-    o.pixel_mm = 0.8;
-    o.slice_spacing_mm = 5.0;
-    o.from_mm = 1500;
-    o.to_mm = 1650;
-    o.threads = 1;
+    PhantomOptions o = section_options(360, 0.8, 1650);
     if (c > 0) o.moisture = Moisture::kDried;
     if (c == 2) o.ring_contrast_hu = 200, o.noise_hu = 35, o.ring_width_mm = 1.5;
     auto ph = Phantom::create(truth_log, o);
@@ -420,13 +424,7 @@ class OneBadSlice : public SliceSource {
 
 TEST(ScanLog, AnOutlineThatLeavesItsNeighboursIsReplacedInTheModelAndTheRecord) {
   const LogModel& truth_log = test::sample_model("pine_8");
-  PhantomOptions o;
-  o.image_size = 320;
-  o.pixel_mm = 1.0;
-  o.slice_spacing_mm = 5.0;
-  o.from_mm = 1500;
-  o.to_mm = 1650;
-  o.threads = 1;
+  const PhantomOptions o = section_options(320, 1.0, 1650);
   auto ph = Phantom::create(truth_log, o);
   ASSERT_TRUE(ph) << ph.error().message();
   PhantomSource inner(*ph.value(), true);

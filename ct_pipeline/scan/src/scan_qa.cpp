@@ -203,19 +203,16 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
     }
     // The bark's step under the outer wood, in the wood's own spread (the levels this slice's
     // contour used: its own where they agree with the scan's).
-    if (scan.levels.valid && std::isfinite(r.contour.bark_hu) && std::isfinite(r.contour.under_bark_hu)) {
+    if (scan.levels.valid && r.contour.bark_seen) {
       const ScanLevels used = slice_levels_or_scan(r.levels, scan.levels);
-      const double to_air = 0.5 * (used.wood_high_hu + used.air_hu);
-      if (std::abs(r.contour.under_bark_hu - to_air) > 1e-3) {  // bark seen (else: the air edge)
-        ++bark_seen;
-        const double step = used.wood_high_hu - r.contour.bark_hu;
-        q.bark_step_sigmas = step / std::max(1.0, used.noise_hu());
-        q.bark_step_share = step / std::max(1.0, used.wood_high_hu - used.air_hu);
-        bark_steps.push_back(q.bark_step_sigmas);
-        bark_shares.push_back(q.bark_step_share);
-        weak_bark += q.bark_step_sigmas < o.outline_min_bark_sigmas ||
-                     q.bark_step_share < o.outline_min_bark_share;
-      }
+      ++bark_seen;
+      const double step = used.wood_high_hu - r.contour.bark_hu;
+      q.bark_step_sigmas = step / std::max(1.0, used.noise_hu());
+      q.bark_step_share = step / std::max(1.0, used.wood_high_hu - used.air_hu);
+      bark_steps.push_back(q.bark_step_sigmas);
+      bark_shares.push_back(q.bark_step_share);
+      weak_bark += q.bark_step_sigmas < o.outline_min_bark_sigmas ||
+                   q.bark_step_share < o.outline_min_bark_share;
     }
     q.outline_suspect = q.at_edge_share > o.outline_max_at_edge ||
                         q.filled_share > o.outline_max_filled ||

@@ -410,9 +410,9 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
     // sigmas of a noisy scan). Where the bark is missing the outermost fall through any level
     // between wood and air is the surface all the same.
     const double se = options.noise_hu / std::sqrt(std::max(1, rays));
-    const bool bark_seen = std::isfinite(out.bark_hu) &&
-                           options.outer_wood_hu - out.bark_hu >= options.bark_sigmas * se;
-    const double outside = bark_seen ? out.bark_hu : options.air_hu;
+    out.bark_seen = std::isfinite(out.bark_hu) &&
+                    options.outer_wood_hu - out.bark_hu >= options.bark_sigmas * se;
+    const double outside = out.bark_seen ? out.bark_hu : options.air_hu;
     edge_level = 0.5 * (options.outer_wood_hu + outside);
     // The inside of a surface: nearer the wood than the bark (a fall within noisy bark has bark
     // inside); not the edge level itself, which a wood level a little under the histogram's mode

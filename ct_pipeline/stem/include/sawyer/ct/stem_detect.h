@@ -152,6 +152,9 @@ struct ContourResult {
   // when not measured) and the under-bark level.
   double bark_hu = NAN;
   double under_bark_hu = NAN;
+  // The bark was lighter than the outer wood by enough to set the level (else the level is
+  // midway to air: a debarked log, or bark no lighter than the wood).
+  bool bark_seen = false;
 };
 
 // Fills the entries of a circular row (radius per azimuth) that `valid` does not mark by linear
