@@ -282,6 +282,17 @@ TEST(Report, StatesTheScannerFrameOfTheScan) {
   EXPECT_EQ(sawing["frame"]["coordinates"], "scanner");
   EXPECT_EQ(sawing["frame"]["scanner_frame"]["origin_mm"], Json({-191.4, 87.5, 1234.5}));
   EXPECT_EQ(sawing["frame"]["scanner_frame"]["z0_mm"], 1234.5);
+  // Every position states its saw set-up in the scanner frame: the pattern centre at the log's
+  // two ends, at the scanner z of the log's first and last slab edges.
+  const Json& sc = sawing["best"]["scanner"];
+  ASSERT_EQ(sc["pattern_centre_at_ends_mm"].size(), 2u);
+  const double z0 = log["stem"]["z0_mm"].get<double>(), dz = log["stem"]["dz_mm"].get<double>();
+  EXPECT_NEAR(sc["pattern_centre_at_ends_mm"][0][2].get<double>(), 1234.5 + z0 - 0.5 * dz, 1e-9);
+  EXPECT_GT(sc["pattern_centre_at_ends_mm"][1][2].get<double>(), 1234.5 + 3900.0);
+  for (const char* key : {"horns_down", "horns_up"})
+    EXPECT_TRUE(sawing[key].contains("scanner")) << key;
+  EXPECT_TRUE(sawing["ranked"][0].contains("scanner"));
+  EXPECT_FALSE(sawing["bow"]["straight"].get<bool>());  // gran1 bows by about 13 mm
   ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
   ASSERT_EQ(shell("pdftotext -layout " + test::quoted(dir / "report/report.pdf") + " -", &out), 0);
   EXPECT_NE(out.find("scanner x, y; z from 1234.5 mm"), std::string::npos) << out;
@@ -289,6 +300,27 @@ TEST(Report, StatesTheScannerFrameOfTheScan) {
   EXPECT_NE(read(dir / "report/report.html")
                 .find("<th>Frame</th><td>scanner x, y; z from 1234.5 mm</td>"),
             std::string::npos);
+  char turn[64];
+  std::snprintf(turn, sizeof turn, "turn %+.1f° from the scan", sc["turn_deg"].get<double>());
+  EXPECT_NE(read(dir / "report/report.html").find(std::string("<th>Saw set-up</th><td>") + turn),
+            std::string::npos)
+      << turn;
+  const Json rep = Json::parse(read(dir / "report/report.json"));
+  EXPECT_NEAR(rep["position"]["scanner"]["turn_deg"].get<double>(), sc["turn_deg"].get<double>(),
+              1e-9);
+}
+
+// A saw set-up that is not two [x, y, z] points is refused, naming the key.
+TEST(Report, BrokenSawSetUpIsNamedAndNoReportIsLeft) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  Json s = Json::parse(read(dir / "sawing.json"));
+  s["best"]["scanner"]["pattern_centre_at_ends_mm"] = Json::array({Json::array({1.0, 2.0})});
+  test::write_file(dir / "sawing.json", s.dump());
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("report -q " + test::quoted(dir.path()), &out), 1);
+  EXPECT_NE(out.find("best.scanner.pattern_centre_at_ends_mm"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "report"));
 }
 
 TEST(Report, GivenPositionIsTheOneReported) {

@@ -9,6 +9,7 @@
 
 #include "sawyer/model/log_generator.h"
 #include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/sawing.h"
 #include "sawyer/sawing/setup.h"
 #include "sawyer/sawing/value.h"
@@ -330,8 +331,11 @@ TEST(Sawing, BowDetectionFindsTheHornsFromAConstructedPith) {
         return Vec2{5.0, 3.0 - 20.0 * std::sin(kPi * z / L)};
       });
   BowInfo b = detect_bow(down.stem);
+  EXPECT_FALSE(b.straight);
   EXPECT_NEAR(b.horns_azimuth, 0.5 * kPi, 1e-6);
-  EXPECT_NEAR(b.height_mm, 20.0, 0.25);  // chord through the end samples, 5 mm in
+  // The parabola fitted to a half sine of 20 mm reaches a little beyond it at the slab ends.
+  EXPECT_NEAR(b.height_mm, 20.6, 0.2);
+  EXPECT_NEAR(b.chord_mm, 20.0, 0.25);  // chord through the end samples, 5 mm in
   // Middle bulging towards (1, 1)/√2: horns at 225°.
   const LogModel diag = test::synthetic_log(
       L, [](double) { return 150.0; },
@@ -343,8 +347,89 @@ TEST(Sawing, BowDetectionFindsTheHornsFromAConstructedPith) {
   EXPECT_NEAR(b.horns_azimuth, 1.25 * kPi, 1e-6);
   // A straight log has no bow and the default horns direction (−y).
   b = detect_bow(test::cylinder_log(100.0).stem);
-  EXPECT_EQ(b.height_mm, 0.0);
+  EXPECT_TRUE(b.straight);
+  EXPECT_LT(b.height_mm, 1e-9);
   EXPECT_NEAR(b.horns_azimuth, 1.5 * kPi, 1e-12);
+}
+
+// The bow is the outline's, not the pith's: a pith that wanders inside a straight outline (an
+// eccentric, S-shaped pith in a straight log) gives no horns.
+TEST(Sawing, BowFollowsTheOutlineNotThePith) {
+  const double L = 3000.0;
+  LogModel log = test::synthetic_log(
+      L, [](double) { return 150.0; },
+      [L](double z) { return Vec2{12.0 * std::sin(kPi * z / L), 0.0}; });
+  // Radii about each pith that keep the outline a circle of 150 mm about (0, 0).
+  for (int i = 0; i < log.stem.slice_count(); ++i) {
+    const Vec2 p = log.stem.pith[i];
+    const int na = log.stem.n_angles;
+    for (int k = 0; k < na; ++k) {
+      const double w = kTwoPi * k / na, cw = std::cos(w), sw = std::sin(w);
+      const double b = p.x * cw + p.y * sw;  // |p + r u| = 150
+      log.stem.radius[i][k] = -b + std::sqrt(b * b - (p.x * p.x + p.y * p.y) + 150.0 * 150.0);
+    }
+    const Vec2 c = outline_centre(log.stem, i);
+    EXPECT_LT(c.norm(), 0.05) << "slice " << i;  // the polygon's centroid, not the circle's
+  }
+  const BowInfo b = detect_bow(log.stem);
+  EXPECT_TRUE(b.straight) << b.height_mm;
+  EXPECT_LT(b.height_mm, 0.1);
+}
+
+// An S-shaped log (a crook one way at the butt, the other way at the top) with a modest overall
+// bow: its horns-down moves by less than 5° when the track is perturbed by 0.5 mm (smooth and
+// slice to slice), as two scans of the log differ; without the bow it is straight, by convention.
+TEST(Sawing, HornsDownIsStableOnAPerturbedSShapedTrack) {
+  const double L = 4000.0;
+  auto track = [L](double z, double bow) {
+    const double t = z / L;
+    // S of ±15 mm along y; bow of `bow` mm sagitta along −x in the middle (horns towards +x).
+    return Vec2{-bow * 4.0 * t * (1.0 - t), 15.0 * std::sin(kTwoPi * t)};
+  };
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const double bow : {8.0, 20.0}) {
+    const LogModel clean = test::synthetic_log(
+        L, [](double) { return 140.0; }, [&](double z) { return track(z, bow); });
+    const BowInfo b0 = detect_bow(clean.stem);
+    ASSERT_FALSE(b0.straight) << bow;
+    EXPECT_NEAR(b0.horns_azimuth, 0.0, 1e-6) << bow;
+    EXPECT_GT(b0.chord_mm, 15.0);  // the S is what the chord sees
+    double worst = 0;
+    for (int trial = 0; trial < 100; ++trial) {
+      LogModel m = clean;
+      // Smooth: a random mix of the first four Legendre-like modes per axis, scaled to a 0.5 mm
+      // peak; plus ±0.5 mm slice to slice.
+      double c[2][4];
+      for (auto& axis : c)
+        for (double& x : axis) x = u(rng);
+      const int n = m.stem.slice_count();
+      std::vector<Vec2> smooth(n);
+      double peak = 0;
+      for (int i = 0; i < n; ++i) {
+        const double t = 2.0 * i / (n - 1) - 1.0;
+        const double p[4] = {1.0, t, 1.5 * t * t - 0.5, 2.5 * t * t * t - 1.5 * t};
+        Vec2 d{0, 0};
+        for (int k = 0; k < 4; ++k) d = d + Vec2{c[0][k] * p[k], c[1][k] * p[k]};
+        smooth[i] = d;
+        peak = std::max(peak, d.norm());
+      }
+      for (int i = 0; i < n; ++i)
+        m.stem.pith[i] = m.stem.pith[i] + (0.5 / peak) * smooth[i] + Vec2{0.5 * u(rng), 0.5 * u(rng)};
+      const BowInfo b = detect_bow(m.stem);
+      ASSERT_FALSE(b.straight);
+      worst = std::max(worst, std::abs(angle_diff(b.horns_azimuth, b0.horns_azimuth)));
+    }
+    EXPECT_LT(worst * 180.0 / kPi, 5.0) << "bow " << bow;
+  }
+  // The same S without the bow: no arc to speak of, so the horns are the scanner's −y.
+  const LogModel s_only = test::synthetic_log(
+      L, [](double) { return 140.0; }, [&](double z) { return track(z, 0.0); });
+  const BowInfo b = detect_bow(s_only.stem);
+  EXPECT_TRUE(b.straight);
+  EXPECT_LT(b.height_mm, 1.0);
+  EXPECT_NEAR(b.horns_azimuth, 1.5 * kPi, 1e-12);
+  EXPECT_GT(b.chord_mm, 10.0);
 }
 
 TEST(Sawing, RotationZeroPutsTheHornsDown) {
@@ -577,7 +662,7 @@ bool trim(const Stem& stem, const std::vector<bool>& ok, const WaneRules& rules,
 std::vector<Board> boards(const SawLog& log, const Pattern& pattern, const sawing::LogPosition& pos) {
   const Stem& stem = log.model().stem;
   const int n = stem.slice_count();
-  const double phi = (1.5 * kPi - log.bow().horns_azimuth) + pos.rotation_deg * kPi / 180.0;
+  const double phi = log.turn_at_zero() + pos.rotation_deg * kPi / 180.0;
   const Geometry g{&log, std::cos(phi), std::sin(phi), pos.offset_x_mm, pos.offset_y_mm};
   std::vector<Board> out;
   for (size_t bi = 0; bi < pattern.boards.size(); ++bi) {
@@ -713,4 +798,89 @@ TEST(Sawing, FastPathEqualsTheReferenceOnRealAndGeneratedLogs) {
   }
   EXPECT_EQ(compared, 2 * 4 * 16);
   EXPECT_GT(waned, 100);  // the positions exercise the wane code, not only clear boards
+}
+
+// A position chosen on one model of a log, stated in the scanner frame, cuts the same saw lines
+// on the model itself and on any other model of that log in the same scanner (here: a "scan" of
+// it whose pith, outline and knots are slightly off, and whose z starts 5 mm later).
+TEST(Sawing, AScannerPositionCutsTheSameBoardsOnAnyModelOfTheLog) {
+  GeneratorOptions go;
+  go.species = Species::kPine;
+  go.seed = 21;
+  go.length_mm = 4000;
+  go.top_diameter_mm = 220;
+  Result<LogModel> gen = generate_log(go);
+  ASSERT_TRUE(gen.ok()) << gen.error().message();
+  LogModel truth = gen.value();
+  truth.scanner_frame = ScannerFrame{};
+  truth.scanner_frame->z0_mm = 4200;  // the scanner's z runs against the log's
+  truth.scanner_frame->z_dir = -1;
+  LogModel scanned = truth;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  for (int i = 0; i < scanned.stem.slice_count(); ++i) {
+    scanned.stem.pith[i] = scanned.stem.pith[i] + Vec2{0.0005 * scanned.stem.z_at(i) + noise(rng), noise(rng)};
+    for (double& r : scanned.stem.radius[i]) r *= 0.99;
+  }
+  scanned.stem.z0_mm -= 5.0;  // its first slice is 5 mm further along the log
+  for (Knot& k : scanned.knots) k.z0 += 2.0 - 5.0;
+  scanned.scanner_frame->z0_mm = 4195;
+
+  const SawLog s_log(scanned);
+  const Pattern p = two_ex_pattern({});
+  ASSERT_TRUE(check_pattern_fits(p, s_log.usable_diameter_mm(), scanned.id).ok());
+  const sawing::LogPosition pos{37.0, 4.0, -2.0};
+  const SawResult a = saw(s_log, p, pos);
+  ASSERT_GE(a.boards.size(), 3u);
+  const ScannerPosition at = scanner_position(s_log, pos);
+
+  // On the scanned model: the same boards at LogPosition{}, and the position reads back.
+  const SawLog s_at(scanned, at);
+  const SawResult b = saw(s_at, p, {});
+  ASSERT_EQ(a.boards.size(), b.boards.size());
+  for (size_t i = 0; i < a.boards.size(); ++i) {
+    EXPECT_EQ(a.boards[i].spec, b.boards[i].spec);
+    EXPECT_NEAR(a.boards[i].z_begin, b.boards[i].z_begin, 1e-6);
+    EXPECT_NEAR(a.boards[i].z_end, b.boards[i].z_end, 1e-6);
+    EXPECT_NEAR(a.boards[i].volume_m3, b.boards[i].volume_m3, 1e-9);
+    EXPECT_EQ(a.boards[i].knots.size(), b.boards[i].knots.size());
+  }
+  const ScannerPosition back = scanner_position(s_at, {});
+  EXPECT_NEAR(back.turn_deg, at.turn_deg, 1e-9);
+  EXPECT_NEAR((back.centre_at(1000.0) - at.centre_at(1000.0)).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((back.centre_at(4000.0) - at.centre_at(4000.0)).norm(), 0.0, 1e-9);
+
+  // On the true model: every board's corners at a given scanner height lie where the scanned
+  // model put them, and the turn is the same.
+  const SawLog t_at(truth, at);
+  const SawResult c = saw(t_at, p, {});
+  EXPECT_NEAR(scanner_position(t_at, {}).turn_deg, at.turn_deg, 1e-9);
+  int compared = 0;
+  for (const Board& ba : a.boards) {
+    for (const Board& bc : c.boards) {
+      if (bc.spec != ba.spec) continue;
+      for (const double zs : {ba.z_begin, ba.z_end}) {
+        const double scanner_z = to_scanner_z(scanned, zs);
+        const double zt = from_scanner_z(truth, scanner_z);
+        EXPECT_NEAR(zt, zs + 5.0, 1e-9);
+        for (const double du : {-0.5, 0.5}) {
+          const double u = ba.u_mm + du * ba.width_mm, v = ba.v_mm;
+          const Vec2 qa = pattern_to_scanner(s_log, pos, u, v, zs);
+          const Vec2 qc = pattern_to_scanner(t_at, {}, u, v, zt);
+          EXPECT_NEAR((qa - qc).norm(), 0.0, 1e-6) << ba.name;
+        }
+      }
+      EXPECT_NEAR(board_placement(s_log, ba, pos).rotation, board_placement(t_at, bc, {}).rotation,
+                  1e-9);
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 3);
+  // The true log's own horns-down is another turn: the same cut is a different rotation there.
+  const SawLog t_log(truth);
+  EXPECT_NEAR(std::remainder(at.turn_deg - t_log.turn_at_zero() * 180.0 / kPi, 360.0),
+              std::remainder(pos.rotation_deg + (s_log.turn_at_zero() - t_log.turn_at_zero()) *
+                                                    180.0 / kPi,
+                             360.0),
+              1e-9);
 }

@@ -293,6 +293,8 @@ int run(const RunCli& c) {
   else
     std::printf(" (expected %.2f; gain over horns-down %+.1f %%)\n", out.opt.best.smoothed,
                 100 * out.opt.gain_over_horns_down);
+  std::printf("saw set-up: %s\n%s\n", sawing::saw_setup_line(out.saw_log, p).c_str(),
+              sawing::bow_line(out.saw_log.bow()).c_str());
   if (const std::string note = sawing::offset_edge_note(out.opt); !su.position && !note.empty())
     std::printf("note: %s\n", note.c_str());
   if (std::string z = ct::resampling_summary(scan.source->geometry()); !z.empty())

@@ -62,6 +62,9 @@ void print_sawing_summary(const LogModel& log, const SawSetup& su, const SawingO
   line("horns-down", r.horns_down);
   line("horns-up", r.horns_up);
   line("best (raw)", r.best_raw);
+  std::fprintf(f, "%s\n", bow_line(out.saw_log.bow()).c_str());
+  std::fprintf(f, "saw set-up at the best position: %s\n",
+               saw_setup_line(out.saw_log, r.best.pos).c_str());
   std::fprintf(f,
                "gain of best over horns-down %+.1f %%, over horns-up %+.1f %% (expected "
                "values)\n",
@@ -74,6 +77,8 @@ void print_sawing_summary(const LogModel& log, const SawSetup& su, const SawingO
     const LogPosition& g = *su.position;
     std::fprintf(f, "given position rot %.1f° x %+.1f y %+.1f mm: %.2f %s\n", g.rotation_deg,
                  g.offset_x_mm, g.offset_y_mm, out.given_value->value, cur.c_str());
+    std::fprintf(f, "saw set-up at the given position: %s\n",
+                 saw_setup_line(out.saw_log, g).c_str());
     print_boards(*out.given_sawn, *out.given_value, su.rules, cur, f);
   }
 }

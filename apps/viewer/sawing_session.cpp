@@ -89,7 +89,7 @@ double SawingSession::gain_over_horns_down() const {
 
 // saw(): pattern (u, v) = Rot(φ)·(scanner − line_at(z)) − offset.
 double SawingSession::phi() const {
-  return (1.5 * kPi - saw_log_->bow().horns_azimuth) + pos_.rotation_deg * kPi / 180.0;
+  return saw_log_->turn_at_zero() + pos_.rotation_deg * kPi / 180.0;
 }
 
 std::array<Vec2, 4> SawingSession::rect_in_scanner(double u, double v, double size_u, double size_v,

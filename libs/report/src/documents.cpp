@@ -530,6 +530,25 @@ Rows log_rows(const Content& c) {
           {"Largest knot", largest}};
 }
 
+// How horns-down was found: from the bow, or a convention for a log too straight to have one.
+std::string horns_note(const BowRecord& b) {
+  if (!b.present) return "";
+  if (b.straight)
+    return fmt(" (log straight: arc bow %.1f mm", b.arc_sagitta_mm) +
+           fmt(" < %.0f mm, so horns-down is the orientation in the scanner)", b.min_bow_mm);
+  return fmt(" (arc bow %.1f mm", b.arc_sagitta_mm) + fmt(", sweep %.1f mm)", b.chord_sweep_mm);
+}
+
+// The chosen position as the log turner and the set-works execute it.
+std::string scanner_setup(const PositionValue& p, bool scanner_frame) {
+  if (!p.has_scanner) return "—";
+  const Vec3 &a = p.centre_at_ends[0], &b = p.centre_at_ends[1];
+  std::string s = fmt("turn %+.1f° from the scan, ", p.turn_deg);
+  s += fmt2("pattern centre (%.1f, %.1f)", a.x, a.y) + fmt(" mm at z %.0f, ", a.z);
+  s += fmt2("(%.1f, %.1f)", b.x, b.y) + fmt(" mm at z %.0f", b.z);
+  return s + (scanner_frame ? " (scanner frame)" : " (log model frame)");
+}
+
 Rows position_rows(const Content& c) {
   const SawingRecord& s = c.run->sawing;
   const std::string expected =
@@ -544,10 +563,11 @@ Rows position_rows(const Content& c) {
       {"Grading", or_none(s.grading)},
       {"Prices", or_none(s.prices) + (s.currency.empty() ? "" : " (" + s.currency + ")")},
       {"Position", s.chosen_given ? "given by the operator" : "best found by the optimiser"},
-      {"Rotation", fmt("%.1f° from horns-down", s.chosen.pos.rotation_deg)},
+      {"Rotation", fmt("%.1f° from horns-down", s.chosen.pos.rotation_deg) + horns_note(s.bow)},
       {"Offset",
        fmt2("x %+.1f mm, y %+.1f mm", s.chosen.pos.offset_x_mm, s.chosen.pos.offset_y_mm) +
            " from the pith line"},
+      {"Saw set-up", scanner_setup(s.chosen, c.run->log.scanner_frame.has_value())},
       // Which frame the log's coordinates (and so a saw's setting) are in.
       {"Frame", c.run->log.scanner_frame
                     ? fmt("scanner x, y; z from %.1f mm", c.run->log.scanner_frame->z0_mm)
@@ -713,6 +733,11 @@ std::string report_json(const Content& c, const ReportFiles& files) {
               {"offset_y_mm", p.pos.offset_y_mm},
               {"value", p.value}};
     if (p.has_smoothed) j["smoothed_value"] = p.smoothed_value;
+    if (p.has_scanner) {
+      Json ends = Json::array();
+      for (const Vec3& e : p.centre_at_ends) ends.push_back({e.x, e.y, e.z});
+      j["scanner"] = {{"turn_deg", p.turn_deg}, {"pattern_centre_at_ends_mm", ends}};
+    }
     return j;
   };
   Json j;

@@ -66,6 +66,25 @@ Result<PositionValue> position(const Json& j, const std::string& key) {
     p.smoothed_value = s.value();
     p.has_smoothed = true;
   }
+  auto sc = it->find("scanner");
+  if (sc != it->end()) {
+    if (!sc->is_object()) return Error(w + "scanner", "expected an object");
+    Result<double> turn = number(*sc, "turn_deg", w + "scanner.");
+    if (!turn) return turn.error();
+    auto ends = sc->find("pattern_centre_at_ends_mm");
+    const std::string we = w + "scanner.pattern_centre_at_ends_mm";
+    if (ends == sc->end() || !ends->is_array() || ends->size() != 2)
+      return Error(we, "expected two [x, y, z] points");
+    for (size_t e = 0; e < 2; ++e) {
+      const Json& q = (*ends)[e];
+      if (!q.is_array() || q.size() != 3 || !q[0].is_number() || !q[1].is_number() ||
+          !q[2].is_number())
+        return Error(we, "expected two [x, y, z] points");
+      p.centre_at_ends[e] = {q[0].get<double>(), q[1].get<double>(), q[2].get<double>()};
+    }
+    p.turn_deg = turn.value();
+    p.has_scanner = true;
+  }
   return p;
 }
 
@@ -164,6 +183,16 @@ Result<SawingRecord> parse_sawing(const Json& j) {
   s.horns_up = hu.value();
   s.gain_over_horns_down = j.value("gain_over_horns_down", 0.0);
   s.gain_over_horns_up = j.value("gain_over_horns_up", 0.0);
+  if (auto bw = j.find("bow"); bw != j.end()) {
+    if (!bw->is_object()) return Error("bow", "expected an object");
+    Result<double> h = number(*bw, "arc_sagitta_mm", "bow."), c = number(*bw, "chord_sweep_mm", "bow."),
+                   m = number(*bw, "min_bow_mm", "bow.");
+    for (const auto* r : {&h, &c, &m})
+      if (!*r) return r->error();
+    auto st = bw->find("straight");
+    if (st == bw->end() || !st->is_boolean()) return Error("bow.straight", "expected true or false");
+    s.bow = {true, h.value(), c.value(), m.value(), st->get<bool>()};
+  }
   const std::string chosen = j.contains("chosen") ? opt_string(j, "chosen") : "best";
   if (chosen != "best" && chosen != "given")
     return Error("chosen", "expected \"best\" or \"given\"");

@@ -8,7 +8,7 @@ namespace sawyer::sawing {
 // saw(): pattern (u, v) = Rot(φ)·(scanner − line_at(z)) − offset, φ = 270° − horns azimuth +
 // rotation.
 double pattern_rotation(const SawLog& log, const LogPosition& pos) {
-  return (1.5 * kPi - log.bow().horns_azimuth) + pos.rotation_deg * kPi / 180.0;
+  return log.turn_at_zero() + pos.rotation_deg * kPi / 180.0;
 }
 
 Vec2 pattern_to_scanner(const SawLog& log, const LogPosition& pos, double u, double v, double z) {
@@ -17,6 +17,32 @@ Vec2 pattern_to_scanner(const SawLog& log, const LogPosition& pos, double u, dou
   const Vec2 o = log.line_at(z);
   const double a = u + pos.offset_x_mm, b = v + pos.offset_y_mm;
   return {o.x + c * a + s * b, o.y - s * a + c * b};  // Rot(−φ)
+}
+
+double to_scanner_z(const LogModel& model, double z) {
+  return model.scanner_frame ? model.scanner_frame->scanner_z(z) : z;
+}
+
+double from_scanner_z(const LogModel& model, double scanner_z) {
+  if (!model.scanner_frame) return scanner_z;
+  const ScannerFrame& f = *model.scanner_frame;
+  return (scanner_z - f.z0_mm) * (f.z_dir < 0 ? -1.0 : 1.0);
+}
+
+ScannerPosition scanner_position(const SawLog& log, const LogPosition& pos) {
+  const LogModel& m = log.model();
+  const double z0 = m.stem.z_begin(), z1 = m.stem.z_end(), zm = 0.5 * (z0 + z1);
+  ScannerPosition s;
+  s.turn_deg = std::remainder(pattern_rotation(log, pos) * 180.0 / kPi, 360.0);
+  if (s.turn_deg <= -180.0) s.turn_deg += 360.0;
+  s.centre = pattern_to_scanner(log, pos, 0, 0, zm);
+  s.centre_z = to_scanner_z(m, zm);
+  const double dz = to_scanner_z(m, z1) - to_scanner_z(m, z0);
+  if (dz != 0) {
+    const Vec2 d = pattern_to_scanner(log, pos, 0, 0, z1) - pattern_to_scanner(log, pos, 0, 0, z0);
+    s.slope = (1.0 / dz) * d;
+  }
+  return s;
 }
 
 BoardPlacement board_placement(const SawLog& log, const Board& b, const LogPosition& pos) {

@@ -6,34 +6,67 @@
 
 namespace sawyer::sawing {
 
-BowInfo detect_bow(const Stem& stem) {
+Vec2 outline_centre(const Stem& stem, int i) {
+  const Vec2 pith = stem.pith[i];
+  const std::vector<double>& rad = stem.radius[i];
+  const int na = static_cast<int>(rad.size());
+  if (na < 3) return pith;
+  // Fan of triangles (pith, p_k, p_k+1): area ½ r_k r_k+1 sin Δ, centroid (p_k + p_k+1) / 3.
+  const double d = kTwoPi / na, sd = std::sin(d);
+  double area = 0, cx = 0, cy = 0;
+  for (int k = 0; k < na; ++k) {
+    const double r0 = rad[k], r1 = rad[(k + 1) % na];
+    const double w0 = k * d, w1 = w0 + d;
+    const double a = 0.5 * r0 * r1 * sd;
+    area += a;
+    cx += a * (r0 * std::cos(w0) + r1 * std::cos(w1)) / 3.0;
+    cy += a * (r0 * std::sin(w0) + r1 * std::sin(w1)) / 3.0;
+  }
+  if (!(area > 0)) return pith;
+  return {pith.x + cx / area, pith.y + cy / area};
+}
+
+BowInfo detect_bow(const Stem& stem, double min_bow_mm) {
   BowInfo out;
   const int n = stem.slice_count();
   if (n < 3) return out;
-  const Vec2 a = stem.pith.front(), b = stem.pith.back();
-  // Deviation of every pith sample from the chord between the end piths; its mean points to the
-  // bulge (the convex side), the horns point the other way.
-  Vec2 mean{0, 0};
-  std::vector<Vec2> dev(n);
+  std::vector<Vec2> c(n);
+  for (int i = 0; i < n; ++i) c[i] = outline_centre(stem, i);
+  // Mills' sweep: the centre line's largest distance from the chord between its end centres.
   for (int i = 0; i < n; ++i) {
     const double t = static_cast<double>(i) / (n - 1);
-    dev[i] = stem.pith[i] - (a + t * (b - a));
-    mean = mean + (1.0 / n) * dev[i];
+    out.chord_mm = std::max(out.chord_mm, (c[i] - (c.front() + t * (c.back() - c.front()))).norm());
   }
-  const double m = mean.norm();
-  if (m < 1e-9) return out;
-  const Vec2 bulge = (1.0 / m) * mean;
-  double h = 0;
-  for (const Vec2& d : dev) h = std::max(h, d.x * bulge.x + d.y * bulge.y);
-  out.height_mm = h;
-  out.horns_direction = {-bulge.x, -bulge.y};
+  // Parabola c(t) = a + b t + q t², t = −1 at the first sample's slab start, +1 at the last one's
+  // end: least squares in x and y (normal equations on t's centred powers). Its sagitta over
+  // [−1, 1] is |q|, and the ends lie on the side q points to: the horns.
+  const double zm = 0.5 * (stem.z_begin() + stem.z_end()), h = 0.5 * stem.length_mm();
+  double s[5] = {0, 0, 0, 0, 0};
+  Vec2 r[3] = {{0, 0}, {0, 0}, {0, 0}};
+  for (int i = 0; i < n; ++i) {
+    const double t = (stem.z_at(i) - zm) / h;
+    double tk = 1;
+    for (int k = 0; k < 5; ++k, tk *= t) {
+      s[k] += tk;
+      if (k < 3) r[k] = r[k] + tk * c[i];
+    }
+  }
+  // Solve [s0 s1 s2; s1 s2 s3; s2 s3 s4] [a b q] = r for q (Cramer's rule on the last column).
+  auto det3 = [](double a, double b, double cc, double d, double e, double f, double g, double hh,
+                 double k) { return a * (e * k - f * hh) - b * (d * k - f * g) + cc * (d * hh - e * g); };
+  const double det = det3(s[0], s[1], s[2], s[1], s[2], s[3], s[2], s[3], s[4]);
+  if (!(std::abs(det) > 1e-12)) return out;
+  const Vec2 q{det3(s[0], s[1], r[0].x, s[1], s[2], r[1].x, s[2], s[3], r[2].x) / det,
+               det3(s[0], s[1], r[0].y, s[1], s[2], r[1].y, s[2], s[3], r[2].y) / det};
+  out.height_mm = q.norm();
+  if (!(out.height_mm >= min_bow_mm)) return out;
+  out.straight = false;
+  out.horns_direction = (1.0 / out.height_mm) * q;
   out.horns_azimuth = wrap_angle(std::atan2(out.horns_direction.y, out.horns_direction.x));
   return out;
 }
 
 SawLog::SawLog(const LogModel& model, int knot_samples) : model_(&model) {
-  static std::atomic<std::uint64_t> next_serial{1};
-  serial_ = next_serial.fetch_add(1);
   const Stem& stem = model.stem;
   const int n = stem.slice_count();
   // Least-squares line through the pith samples: pith ≈ line_p_ + line_s_·(z − line_z_).
@@ -54,6 +87,29 @@ SawLog::SawLog(const LogModel& model, int knot_samples) : model_(&model) {
   }
   line_s_ = szz > 0 ? (1.0 / szz) * szp : Vec2{};
   bow_ = detect_bow(stem);
+  turn0_ = 1.5 * kPi - bow_.horns_azimuth;
+  build(knot_samples);
+}
+
+SawLog::SawLog(const LogModel& model, const ScannerPosition& at, int knot_samples)
+    : model_(&model) {
+  // Scanner z = z0 + z_dir·z (z_dir = ±1): the line's height and slope in the model's z.
+  const ScannerFrame f = model.scanner_frame.value_or(ScannerFrame{});
+  const double dir = f.z_dir < 0 ? -1.0 : 1.0;
+  line_z_ = (at.centre_z - f.z0_mm) * dir;
+  line_p_ = at.centre;
+  line_s_ = dir * at.slope;
+  bow_ = detect_bow(model.stem);
+  turn0_ = at.turn_deg * kPi / 180.0;
+  build(knot_samples);
+}
+
+void SawLog::build(int knot_samples) {
+  static std::atomic<std::uint64_t> next_serial{1};
+  serial_ = next_serial.fetch_add(1);
+  const LogModel& model = *model_;
+  const Stem& stem = model.stem;
+  const int n = stem.slice_count();
 
   rmin2_.resize(n);
   rmax2_.resize(n);

@@ -1,6 +1,9 @@
 // One sawing job (see sawing_job.h).
 #include "sawyer/sawing/sawing_job.h"
 
+#include <cstdio>
+
+#include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/sawing_json.h"
 #include "sawyer/sawing/setup.h"
 
@@ -64,13 +67,72 @@ std::string offset_edge_note(const OptimiseResult& r) {
          "): a wider range (--offsets" + (y && !x ? "-y" : "") + ") may be worth more";
 }
 
+std::string bow_line(const BowInfo& b) {
+  char buf[256];
+  if (b.straight)
+    std::snprintf(buf, sizeof buf,
+                  "log straight (arc bow %.1f mm < %.0f mm, sweep %.1f mm): horns-down is the "
+                  "orientation it had in the scanner, a convention",
+                  b.height_mm, kMinBowMm, b.chord_mm);
+  else
+    std::snprintf(buf, sizeof buf,
+                  "horns-down from an arc bow of %.1f mm (sweep %.1f mm), horns at %.0f° in the "
+                  "scanner",
+                  b.height_mm, b.chord_mm, b.horns_azimuth * 180.0 / kPi);
+  return buf;
+}
+
+std::string saw_setup_line(const SawLog& log, const LogPosition& pos) {
+  const ScannerPosition s = scanner_position(log, pos);
+  const Stem& stem = log.model().stem;
+  const double z0 = to_scanner_z(log.model(), stem.z_begin());
+  const double z1 = to_scanner_z(log.model(), stem.z_end());
+  const Vec2 a = s.centre_at(z0), b = s.centre_at(z1);
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "turn %+.1f° from the scan; pattern centre (%.1f, %.1f) mm at z %.0f, (%.1f, "
+                "%.1f) mm at z %.0f (%s frame)",
+                s.turn_deg, a.x, a.y, z0, b.x, b.y, z1,
+                log.model().scanner_frame ? "scanner" : "log model");
+  return buf;
+}
+
 namespace {
 
-Json ranked_json(const RankedPosition& r) {
+// The position as the saw executes it: the turn from the log's orientation in the scanner and
+// the pattern centre at the log's two ends, in scanner x, y, z (docs/sawing.md, "Frames").
+Json scanner_json(const SawLog& log, const LogPosition& pos) {
+  const ScannerPosition s = scanner_position(log, pos);
+  const Stem& stem = log.model().stem;
+  Json ends = Json::array();
+  for (const double z : {stem.z_begin(), stem.z_end()}) {
+    const double sz = to_scanner_z(log.model(), z);
+    const Vec2 c = s.centre_at(sz);
+    ends.push_back({c.x, c.y, sz});
+  }
+  return {{"turn_deg", s.turn_deg}, {"pattern_centre_at_ends_mm", ends}};
+}
+
+Json ranked_json(const SawLog& log, const RankedPosition& r) {
   Json j = position_json(r.pos);
   j["value"] = r.value;
   j["smoothed_value"] = r.smoothed;
+  j["scanner"] = scanner_json(log, r.pos);
   return j;
+}
+
+Json bow_json(const BowInfo& b) {
+  return {{"method",
+           "arc fitted to the outline's centre line (area centroids per height); the horns point "
+           "along its curvature"},
+          {"arc_sagitta_mm", b.height_mm},
+          {"chord_sweep_mm", b.chord_mm},
+          {"min_bow_mm", kMinBowMm},
+          {"straight", b.straight},
+          {"horns_azimuth_deg", b.horns_azimuth * 180.0 / kPi},
+          {"horns_down",
+           b.straight ? "convention: the log as it lay in the scanner (bow below min_bow_mm)"
+                      : "from the bow"}};
 }
 
 // Which frame the positions and coordinates are in: offsets and rotation are relative to the
@@ -80,7 +142,9 @@ Json frame_json(const LogModel& log) {
   Json j;
   j["position"] =
       "rotation_deg from horns down about the mean pith line; offset_x_mm, offset_y_mm from the "
-      "mean pith line in the turned cross-section (docs/sawing.md)";
+      "mean pith line in the turned cross-section (docs/sawing.md); \"scanner\": the same "
+      "position as executed: turn_deg from the log's orientation in the scanner, counter-"
+      "clockwise in the scanner's x-y plane, and the pattern centre at the log's two ends";
   j["coordinates"] = log.scanner_frame ? "scanner" : "log model";
   if (log.scanner_frame) {
     const ScannerFrame& f = *log.scanner_frame;
@@ -114,20 +178,22 @@ Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOu
       {"offset_y_max_mm", o.offset_y_max_mm}, {"offset_y_step_mm", o.offset_y_step_mm},
       {"sigma_rot_deg", o.sigma_rot_deg},     {"sigma_offset_mm", o.sigma_offset_mm}};
   j["frame"] = frame_json(log);
+  j["bow"] = bow_json(out.saw_log.bow());
   j["pattern_point_symmetric"] = r.symmetric;
   j["chosen"] = out.chosen_is_given() ? "given" : "best";
-  j["best"] = ranked_json(r.best);
-  j["horns_down"] = ranked_json(r.horns_down);
-  j["horns_up"] = ranked_json(r.horns_up);
+  j["best"] = ranked_json(out.saw_log, r.best);
+  j["horns_down"] = ranked_json(out.saw_log, r.horns_down);
+  j["horns_up"] = ranked_json(out.saw_log, r.horns_up);
   j["gain_over_horns_down"] = r.gain_over_horns_down;
   j["gain_over_horns_up"] = r.gain_over_horns_up;
   Json ranked = Json::array();
-  for (const RankedPosition& p : r.ranked) ranked.push_back(ranked_json(p));
+  for (const RankedPosition& p : r.ranked) ranked.push_back(ranked_json(out.saw_log, p));
   j["ranked"] = ranked;
   j["boards"] = boards_json(out.best_sawn, out.best_value, setup.rules, true);
   if (out.given_sawn) {
     j["given_position"] = position_json(*setup.position);
     j["given_position"]["value"] = out.given_value->value;
+    j["given_position"]["scanner"] = scanner_json(out.saw_log, *setup.position);
     // Raw over raw: a position off the grid has no smoothed value.
     j["given_position"]["gain_over_horns_down"] =
         r.horns_down.value > 0 ? out.given_value->value / r.horns_down.value - 1 : 0.0;

@@ -8,6 +8,7 @@
 //   if (!run) { std::cerr << run.error().message() << "\n"; ... }  // names the file and problem
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -43,6 +44,18 @@ struct PositionValue {
   double value = 0;
   double smoothed_value = 0;
   bool has_smoothed = false;
+  // The same position in the scanner frame ("scanner"; absent in older files): the turn from
+  // the log's orientation in the scanner and the pattern centre (x, y, z) at the log's two ends.
+  bool has_scanner = false;
+  double turn_deg = 0;
+  std::array<Vec3, 2> centre_at_ends{};
+};
+
+// The log's bow as the sawing file states it ("bow"; absent in older files).
+struct BowRecord {
+  bool present = false;
+  double arc_sagitta_mm = 0, chord_sweep_mm = 0, min_bow_mm = 0;
+  bool straight = false;
 };
 
 // One board of sawing.json at the chosen position.
@@ -74,6 +87,7 @@ struct SawingRecord {
   double gain_over_horns_down = 0, gain_over_horns_up = 0;  // of the best's expected value
   bool chosen_given = false;                                // "chosen": "given"
   PositionValue chosen;                                     // best or given_position
+  BowRecord bow;
   std::vector<BoardRecord> boards;                          // at the chosen position
   ValueSurface surface;
 };

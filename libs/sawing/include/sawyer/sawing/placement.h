@@ -30,6 +30,14 @@ double pattern_rotation(const SawLog& log, const LogPosition& pos);
 // Scanner (x, y) of the pattern point (u, v) at height z, with the log at `pos`.
 Vec2 pattern_to_scanner(const SawLog& log, const LogPosition& pos, double u, double v, double z);
 
+// `pos` on `log` as the saw executes it (sawing.h, ScannerPosition): the turn, and the pattern
+// centre's line in scanner x, y against scanner z (its point at the log's mid-length).
+ScannerPosition scanner_position(const SawLog& log, const LogPosition& pos);
+
+// A model height's scanner z, and back (LogModel::scanner_frame; the identity without one).
+double to_scanner_z(const LogModel& model, double z);
+double from_scanner_z(const LogModel& model, double scanner_z);
+
 // The board `b` (sawn from `log` at `pos`) in the scanner frame.
 BoardPlacement board_placement(const SawLog& log, const Board& b, const LogPosition& pos);
 

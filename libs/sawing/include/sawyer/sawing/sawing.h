@@ -4,11 +4,19 @@
 // Frames (mm, degrees in the API): the pattern frame (u, v, z) has z along the log as in the log
 // model, origin on the log's mean pith line (the least-squares line through the pith samples),
 // v up. The log is turned about that line so that its horns point down at rotation 0:
-//   horns direction h = from the pith where it lies farthest from the chord between the end
-//   piths towards that chord (the way the two ends of a bowed log point). Rotation 0 puts h at
-//   −v (horns down, bow down); positive rotations turn the log counter-clockwise seen from +z.
+//   horns direction h = the way the ends of the log's sweep point, from the arc fitted to the
+//   centre line of its outline (what a 3-D log scanner sees; detect_bow). A log whose arc bows
+//   less than kMinBowMm is straight for this purpose: its "horns-down" is the orientation it had
+//   in the scanner (h = −y), a convention, and BowInfo::straight says so.
+//   Rotation 0 puts h at −v (horns down, bow down); positive rotations turn the log
+//   counter-clockwise seen from +z.
 // The pattern is then shifted by the offset: a pattern point (u, v) lies at (u + x, v + y) in the
 // turned log's cross-section.
+//
+// What the saw executes is the same cut in the scanner frame (ScannerPosition): the turn from
+// the log's orientation in the CT and the pattern's centre line through the scanner. A SawLog
+// built on a ScannerPosition cuts that physical position at LogPosition{}, on any model of the
+// same log in the same scanner frame (a scanned model and the true one, say).
 //
 //   SawLog log(model);                      // precomputation, once per log
 //   Pattern p = two_ex_pattern({});
@@ -34,13 +42,29 @@
 
 namespace sawyer::sawing {
 
-// The log's bow, from the pith track.
+// A bow smaller than this is no bow for horns-down: the direction of an arc whose sagitta is
+// h moves by asin(e / h) under an error e of the centre line's bow, and 0.5 mm (a good scan's
+// centre-line error) must move it by less than 5°: h ≥ 0.5 / sin 5° = 5.7 mm.
+inline constexpr double kMinBowMm = 6.0;
+
+// The log's bow (sweep), from the centre line of its outline: per stem sample the area centroid
+// of the outline, and the parabola fitted to those centres along z by least squares (in x and y).
 struct BowInfo {
-  double height_mm = 0.0;            // largest distance of the pith from the end-to-end chord, mm
-  Vec2 horns_direction{0, -1};       // unit, scanner (x, y); (0, −1) when the log is straight
+  // Sagitta of the fitted arc over the log's length: how far its middle lies from the straight
+  // line between its ends, mm. The horns point along the arc's curvature (from the middle
+  // towards the chord).
+  double height_mm = 0.0;
+  // The largest distance of the centre line from the chord between its two end centres (the
+  // mills' "sweep"), mm; for information: an S-shaped log has a chord bow but little arc.
+  double chord_mm = 0.0;
+  bool straight = true;              // height_mm < the threshold: horns-down is a convention
+  Vec2 horns_direction{0, -1};       // unit, scanner (x, y); (0, −1) when straight
   double horns_azimuth = 1.5 * kPi;  // atan2 of horns_direction, rad in [0, 2π)
 };
-BowInfo detect_bow(const Stem& stem);
+BowInfo detect_bow(const Stem& stem, double min_bow_mm = kMinBowMm);
+
+// Area centroid of stem sample i's outline (scanner x, y); the pith where it has no outline.
+Vec2 outline_centre(const Stem& stem, int i);
 
 struct LogPosition {
   double rotation_deg = 0.0;  // about the mean pith line; 0 = horns down
@@ -48,18 +72,41 @@ struct LogPosition {
   double offset_y_mm = 0.0;
 };
 
+// A position as the log turner and the saw's set-works execute it, in the scanner frame of the
+// CT (the model's x, y; heights in the scanner's z, LogModel::scanner_frame): the log turned by
+// turn_deg from its orientation in the scanner, counter-clockwise in the scanner's x–y plane
+// (a scanner point q, taken from the centre line, lands at Rot(turn)·q in the pattern frame),
+// and the pattern's centre (pattern point (0, 0)) on the line centre + slope·(z − centre_z).
+struct ScannerPosition {
+  double turn_deg = 0.0;  // (−180, 180]
+  Vec2 centre;            // pattern centre, scanner x, y at scanner height centre_z, mm
+  Vec2 slope;             // d centre / d scanner z
+  double centre_z = 0.0;  // scanner z, mm
+  Vec2 centre_at(double scanner_z) const {
+    return {centre.x + slope.x * (scanner_z - centre_z), centre.y + slope.y * (scanner_z - centre_z)};
+  }
+};
+
 // A log prepared for sawing many times: mean pith line, bow, usable diameter and per-knot axis
 // polylines relative to the mean pith line.
 class SawLog {
  public:
   explicit SawLog(const LogModel& model, int knot_samples = 48);
+  // The log set up at a physical position: its centre line is `at`'s pattern-centre line and
+  // LogPosition{} turns it by at.turn_deg, so saw(log, pattern, {}) cuts the boards that
+  // position cuts; LogPosition{r, x, y} is that position turned by r more and shifted by (x, y).
+  // bow() is still the model's own.
+  SawLog(const LogModel& model, const ScannerPosition& at, int knot_samples = 48);
 
   const LogModel& model() const { return *model_; }
   const BowInfo& bow() const { return bow_; }
+  // The turn φ of LogPosition{} (rad): 270° − the horns' azimuth, or the ScannerPosition's turn.
+  double turn_at_zero() const { return turn0_; }
   // Diameter of the largest circle about the pith inscribed in the top end (the end with the
   // smaller mean radius), under bark, mm.
   double usable_diameter_mm() const { return usable_diameter_mm_; }
-  // Mean pith line at height z (scanner x, y).
+  // The centre line at model height z (scanner x, y): the mean pith line, or the pattern-centre
+  // line of the ScannerPosition the log was built on.
   Vec2 line_at(double z) const {
     return {line_p_.x + line_s_.x * (z - line_z_), line_p_.y + line_s_.y * (z - line_z_)};
   }
@@ -99,6 +146,8 @@ class SawLog {
   Vec2 line_p_, line_s_;
   double line_z_ = 0;
   BowInfo bow_;
+  double turn0_ = 0;
+  void build(int knot_samples);  // the tables below, from line_* and the model
   double usable_diameter_mm_ = 0;
   std::vector<KnotPolyline> knots_;
   std::vector<double> rmin2_, rmax2_;  // squared radius range per stem sample

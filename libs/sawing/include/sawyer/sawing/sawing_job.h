@@ -65,6 +65,12 @@ Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
 // edge (x or y at ±max) and that a wider range may be worth more, for the summaries.
 std::string offset_edge_note(const OptimiseResult& result);
 
+// One line each for the summaries: how horns-down was found ("horns-down from an arc bow of
+// 12.7 mm (sweep 22.0 mm)" or that the log is straight and horns-down a convention), and
+// `pos` as the saw executes it (turn from the scan, pattern centre at the log's ends).
+std::string bow_line(const BowInfo& bow);
+std::string saw_setup_line(const SawLog& log, const LogPosition& pos);
+
 // The `sawyer-sawing/1` file: names, options, best / horns-down / horns-up with their values,
 // gains, ranked positions, the boards at the best position (with details), the given position
 // and its boards, "chosen" ("best" | "given"), and the value surface.
