@@ -232,3 +232,73 @@ TEST(Grading, DamagedFilesGiveAnErrorNotACrash) {
         message(pattern_from_json("[1e99999]"))})
     EXPECT_NE(m.find("out of range"), std::string::npos) << m;
 }
+
+// Cross-cutting to value (issue 21, item 5): a dead knot 400 mm from one end of a 3 m board
+// keeps it in B; cut 600 mm shorter (two 300 mm steps) the piece is A and, at A's price, worth
+// more. Without length steps in the price list the board is sold as sawn.
+TEST(Value, ABoardWithADeadKnotNearOneEndIsCrossCutAndWorthMore) {
+  const GradingRules rules = rules_from(three_grades(25.0));  // A: dead ≤ 10; B: dead ≤ 30
+  LogModel log = cylinder_log(200.0, 3000.0);
+  log.knots.push_back(knot_along_x(1, 400.0, 10.0, 20.0));  // 20 mm dead on face+
+  const SawLog saw_log(log);
+  const Pattern p = centred_board(40.0, 150.0);
+  const std::string json = R"({"format": "sawyer-prices/1", "default": {"A": 500, "B": 300, "C": 100},
+      "lengths": {"step_mm": 300, "min_mm": 1800}})";
+  Result<PriceTable> prices = prices_from_json(json);
+  ASSERT_TRUE(prices.ok()) << prices.error().message();
+  EXPECT_EQ(prices.value().length_step_mm, 300.0);
+  EXPECT_EQ(prices.value().min_length_mm, 1800.0);
+
+  const SawResult sawn = saw(saw_log, p, {});
+  ASSERT_EQ(sawn.boards.size(), 1u);
+  ASSERT_EQ(sawn.boards[0].knots.size(), 1u);
+  const LogValue before = value_of(sawn, rules, prices.value());
+  EXPECT_EQ(rules.grade_name(before.boards[0].grade.grade), "B");
+
+  SawResult cut = sawn;
+  trim_to_value(cut, rules, prices.value());
+  const Board& b = cut.boards[0];
+  ASSERT_TRUE(b.trimmed());
+  EXPECT_TRUE(b.knots.empty());
+  EXPECT_NEAR(b.z_begin - b.sawn_begin, 600.0, 1e-9);  // past the knot at 400 mm, in two steps
+  EXPECT_NEAR(b.sawn_end, b.z_end, 1e-9);
+  EXPECT_NEAR(b.volume_m3, sawn.boards[0].volume_m3 * b.length_mm() / sawn.boards[0].length_mm(),
+              1e-9);  // a cylinder wide enough for no wane: volume goes with length
+  EXPECT_NEAR(cut.volume_m3, b.volume_m3, 1e-12);
+  const LogValue after = value_of(cut, rules, prices.value());
+  EXPECT_EQ(rules.grade_name(after.boards[0].grade.grade), "A");
+  EXPECT_GT(after.value, before.value);
+  EXPECT_NEAR(after.value, b.volume_m3 * 500.0, 1e-9);
+
+  // The same knot in the middle: any piece without it is under the minimum length; no cut.
+  LogModel mid = cylinder_log(200.0, 3000.0);
+  mid.knots.push_back(knot_along_x(1, 1500.0, 10.0, 20.0));
+  const SawLog mid_log(mid);
+  SawResult m = saw(mid_log, p, {});
+  trim_to_value(m, rules, prices.value());
+  ASSERT_EQ(m.boards.size(), 1u);
+  EXPECT_FALSE(m.boards[0].trimmed());
+
+  // A cheap A: the shorter A piece is worth less than the whole B board; no cut.
+  Result<PriceTable> flat = prices_from_json(R"({"format": "sawyer-prices/1",
+      "default": {"A": 320, "B": 300, "C": 100}, "lengths": {"step_mm": 300}})");
+  ASSERT_TRUE(flat.ok());
+  SawResult f = sawn;
+  trim_to_value(f, rules, flat.value());
+  EXPECT_FALSE(f.boards[0].trimmed());
+
+  // No length steps: sold as sawn.
+  Result<PriceTable> none = prices_from_json(R"({"format": "sawyer-prices/1",
+      "default": {"A": 500, "B": 300, "C": 100}})");
+  ASSERT_TRUE(none.ok());
+  SawResult n = sawn;
+  trim_to_value(n, rules, none.value());
+  EXPECT_FALSE(n.boards[0].trimmed());
+
+  // A bad length is refused, naming the key.
+  Result<PriceTable> bad = prices_from_json(R"({"format": "sawyer-prices/1",
+      "default": {"A": 500}, "lengths": {"step_mm": -300}})");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message().find("lengths.step_mm"), std::string::npos)
+      << bad.error().message();
+}

@@ -446,3 +446,27 @@ TEST(BoardPlacement, MapsBackToThePatternFrame) {
     EXPECT_EQ(p.z0, b.z_begin);
   }
 }
+
+// A board cross-cut to value (sawing.json "offcuts_mm") shows its offcuts in the board table;
+// a broken offcut list is refused, naming the key.
+TEST(Report, ShowsTheOffcutsOfACrossCutBoard) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  Json s = Json::parse(read(dir / "sawing.json"));
+  Json& b = s["boards"][0];
+  const double z0 = b["z_begin_mm"].get<double>(), z1 = b["z_end_mm"].get<double>();
+  b["z_begin_mm"] = z0 + 600.0;
+  b["offcuts_mm"] = {600.0, 0.0};
+  test::write_file(dir / "sawing.json", s.dump());
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  char want[96];
+  std::snprintf(want, sizeof want, "cross-cut from %.2f m: 0.60 m off at z %.2f m", (z1 - z0) * 1e-3,
+                z0 * 1e-3);
+  EXPECT_NE(read(dir / "report/report.html").find(want), std::string::npos) << want;
+
+  b["offcuts_mm"] = {600.0};
+  test::write_file(dir / "sawing.json", s.dump());
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("report -q " + test::quoted(dir.path()), &out), 1);
+  EXPECT_NE(out.find("boards[0].offcuts_mm"), std::string::npos) << out;
+}

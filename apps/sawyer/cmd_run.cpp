@@ -212,6 +212,14 @@ int run(const RunCli& c) {
                   out.chosen_sawn().boards.size());
     bar.done("saw", stages.back().seconds, note);
   }
+  // The decision first, for the operator at the saw: the files and the report follow.
+  {
+    const sawing::LogPosition& p = su.position ? *su.position : out.opt.best.pos;
+    std::printf("position: rot %.1f° x %+.1f y %+.1f mm, %.2f %s; saw set-up: %s\n",
+                p.rotation_deg, p.offset_x_mm, p.offset_y_mm, out.chosen_value().value,
+                su.prices.currency.c_str(), sawing::saw_setup_line(out.saw_log, p).c_str());
+    std::fflush(stdout);
+  }
 
   std::string checksum;
   double report_seconds = 0;

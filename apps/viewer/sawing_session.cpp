@@ -72,7 +72,9 @@ Result<std::unique_ptr<SawingSession>> SawingSession::create(const LogModel& log
   s->rules_ = std::move(rules).value();
   s->prices_ = std::move(prices).value();
   s->choice_ = choice;
-  s->horns_down_ = value_of(saw(*s->saw_log_, s->pattern_, {}), s->rules_, s->prices_).value;
+  SawResult hd = saw(*s->saw_log_, s->pattern_, {});
+  trim_to_value(hd, s->rules_, s->prices_);
+  s->horns_down_ = value_of(hd, s->rules_, s->prices_).value;
   s->set_position({});
   return s;
 }
@@ -80,6 +82,7 @@ Result<std::unique_ptr<SawingSession>> SawingSession::create(const LogModel& log
 void SawingSession::set_position(const LogPosition& pos) {
   pos_ = pos;
   sawn_ = saw(*saw_log_, pattern_, pos_);
+  trim_to_value(sawn_, rules_, prices_);
   value_ = value_of(sawn_, rules_, prices_);
 }
 

@@ -277,7 +277,7 @@ class PdfWriter {
                   cols[i].align);
       }
       set_color(cr_, kMuted);
-      const double h = wrap(r.limited_by, cell_x(7), y_, widths[7], 7.5, 9.5);
+      const double h = wrap(r.limit_and_offcuts(), cell_x(7), y_, widths[7], 7.5, 9.5);
       y_ += std::max(13.0, h + 3);
       rule(y_ - 9);
     }
@@ -674,7 +674,7 @@ std::string report_html(const Content& c) {
       << "</td><td class=\"n\">" << fmt("%.2f", b.length_mm() * 1e-3) << "</td><td class=\"n\">"
       << fmt("%.4f", b.volume_m3) << "</td><td><b>" << html_escape(b.grade)
       << "</b></td><td class=\"n\">" << fmt("%.2f", b.value) << "</td><td class=\"lim\">"
-      << html_escape(b.limited_by) << "</td></tr>\n";
+      << html_escape(b.limit_and_offcuts()) << "</td></tr>\n";
   }
   h << "<tr class=\"total\"><td></td><td>total</td><td>" << s.boards.size()
     << " boards</td><td></td><td class=\"n\">" << fmt("%.4f", c.boards_volume_m3)

@@ -124,12 +124,33 @@ Result<BoardRecord> board(const Json& j, const std::string& where) {
       ++b.knots;
       if (kn.is_object() && kn.value("dead", false)) ++b.dead_knots;
     }
+  if (auto oc = j.find("offcuts_mm"); oc != j.end()) {
+    if (!oc->is_array() || oc->size() != 2 || !(*oc)[0].is_number() || !(*oc)[1].is_number() ||
+        (*oc)[0].get<double>() < 0 || (*oc)[1].get<double>() < 0)
+      return Error(w + "offcuts_mm", "expected two lengths >= 0");
+    b.offcut_begin_mm = (*oc)[0].get<double>();
+    b.offcut_end_mm = (*oc)[1].get<double>();
+  }
   if (auto wn = j.find("wane"); wn != j.end() && wn->is_array())
     for (const Json& s : *wn)
       if (s.is_object() && s.contains("max_mm") && s["max_mm"].is_number())
         b.max_wane_mm = std::max(b.max_wane_mm, s["max_mm"].get<double>());
   return b;
 }
+
+}  // namespace
+
+std::string BoardRecord::limit_and_offcuts() const {
+  if (offcut_begin_mm <= 0 && offcut_end_mm <= 0) return limited_by;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "; cross-cut from %.2f m: %.2f m off at z %.2f m, %.2f m at z %.2f m",
+                (length_mm() + offcut_begin_mm + offcut_end_mm) * 1e-3, offcut_begin_mm * 1e-3,
+                (z_begin_mm - offcut_begin_mm) * 1e-3, offcut_end_mm * 1e-3,
+                (z_end_mm + offcut_end_mm) * 1e-3);
+  return limited_by + buf;
+}
+
+namespace {
 
 Result<std::vector<BoardRecord>> boards(const Json& j, const std::string& where) {
   if (!j.is_array()) return Error(where, "expected an array of boards");

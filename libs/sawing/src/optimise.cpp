@@ -196,7 +196,9 @@ Result<OptimiseResult> optimise_position(const SawLog& log, const Pattern& patte
     return LogPosition{res.rotations_deg[ir], res.offsets_x_mm[ix], res.offsets_y_mm[iy]};
   };
   auto value_at = [&](const LogPosition& p) {
-    return value_of(saw(log, pattern, p), rules, prices).value;
+    SawResult r = saw(log, pattern, p);
+    trim_to_value(r, rules, prices);
+    return value_of(r, rules, prices).value;
   };
 
   res.threads = o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());

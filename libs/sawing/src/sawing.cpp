@@ -542,11 +542,14 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
     b.z_begin = best_zb;
     b.z_end = best_ze;
     b.box_volume_m3 = spec.thickness_mm * best_w * (best_ze - best_zb) * 1e-9;
+    b.sawn_begin = best_zb;
+    b.sawn_end = best_ze;
     double missing = 0;
     for (int i = 0; i < n; ++i) {
       const double z = stem.z_at(i);
-      const double ov =
-          std::min(z + 0.5 * stem.dz_mm, best_ze) - std::max(z - 0.5 * stem.dz_mm, best_zb);
+      const double s0 = std::max(z - 0.5 * stem.dz_mm, best_zb);
+      const double s1 = std::min(z + 0.5 * stem.dz_mm, best_ze);
+      const double ov = s1 - s0;
       if (ov <= 0) continue;
       SliceWane here;
       if (have_sw)
@@ -554,10 +557,13 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
       else
         slice_wane(pl, sec, pattern.wane, i, &here);
       missing += here.area * ov;
+      BoardSlab slab{s0, s1, {}, static_cast<float>(here.area)};
       for (int k = 0; k < 4; ++k) {
         b.wane[k].max_mm = std::max(b.wane[k].max_mm, here.side[k]);
         if (here.side[k] > 0) b.wane[k].length_mm += ov;
+        slab.wane[k] = static_cast<float>(here.side[k]);
       }
+      b.slabs.push_back(slab);
     }
     b.volume_m3 = b.box_volume_m3 - missing * 1e-9;
 

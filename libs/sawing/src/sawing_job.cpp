@@ -47,9 +47,11 @@ Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
   if (!opt) return opt.error();
   out.opt = std::move(opt.value());
   out.best_sawn = saw(out.saw_log, setup.pattern, out.opt.best.pos);
+  trim_to_value(out.best_sawn, setup.rules, setup.prices);
   out.best_value = value_of(out.best_sawn, setup.rules, setup.prices);
   if (setup.position) {
     out.given_sawn = saw(out.saw_log, setup.pattern, *setup.position);
+    trim_to_value(*out.given_sawn, setup.rules, setup.prices);
     out.given_value = value_of(*out.given_sawn, setup.rules, setup.prices);
   }
   return out;

@@ -30,6 +30,12 @@ Json boards_json(const SawResult& sawn, const LogValue& v, const GradingRules& r
                   {"limited_by", describe(bv.grade.limit, rules)},
                   {"price_per_m3", bv.price_per_m3},
                   {"value", bv.value}};
+    if (b.trimmed()) {
+      // Cross-cut to value (trim_to_value): the sawn length and the offcuts at either end.
+      board["sawn_begin_mm"] = b.sawn_begin;
+      board["sawn_end_mm"] = b.sawn_end;
+      board["offcuts_mm"] = {b.z_begin - b.sawn_begin, b.sawn_end - b.z_end};
+    }
     if (details) {
       Json wane = Json::array();
       for (const SideWane& w : b.wane)

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include "sawyer/core/file_util.h"
@@ -63,6 +64,80 @@ LogValue value_of(const SawResult& sawn, const GradingRules& rules, const PriceT
   return out;
 }
 
+namespace {
+
+// cut_board(); without the piece's slabs when only its grade and volume are wanted.
+Board cut(const Board& b, double z0, double z1, bool keep_slabs) {
+  // Every field but the per-sample and per-knot lists, which are rebuilt for the piece.
+  Board c;
+  c.spec = b.spec;
+  c.name = b.name;
+  c.thickness_mm = b.thickness_mm, c.width_mm = b.width_mm;
+  c.thickness_axis = b.thickness_axis;
+  c.u_mm = b.u_mm, c.v_mm = b.v_mm;
+  c.sawn_begin = b.sawn_begin, c.sawn_end = b.sawn_end;
+  for (int k : b.hidden_knots) c.hidden_knots.push_back(k);
+  c.z_begin = z0;
+  c.z_end = z1;
+  c.box_volume_m3 = b.thickness_mm * b.width_mm * (z1 - z0) * 1e-9;
+  c.knots.clear();
+  for (const KnotOnSide& k : b.knots) {
+    if (k.z_mm < z0 || k.z_mm > z1) continue;
+    c.knots.push_back(k);
+    c.knots.back().along_mm = k.z_mm - z0;
+  }
+  double missing = 0;
+  for (const BoardSlab& s : b.slabs) {
+    const double ov = std::min(s.z1, z1) - std::max(s.z0, z0);
+    if (ov <= 0) continue;
+    if (keep_slabs) c.slabs.push_back({std::max(s.z0, z0), std::min(s.z1, z1), s.wane, s.missing_mm2});
+    missing += s.missing_mm2 * ov;
+    for (int k = 0; k < 4; ++k) {
+      c.wane[k].max_mm = std::max(c.wane[k].max_mm, static_cast<double>(s.wane[k]));
+      if (s.wane[k] > 0) c.wane[k].length_mm += ov;
+    }
+  }
+  c.volume_m3 = c.box_volume_m3 - missing * 1e-9;
+  return c;
+}
+
+}  // namespace
+
+Board cut_board(const Board& b, double z0, double z1) { return cut(b, z0, z1, true); }
+
+void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable& prices) {
+  const double step = prices.length_step_mm;
+  if (!(step > 0)) return;
+  // The best price any grade of this size fetches bounds what a shorter piece can be worth.
+  sawn.volume_m3 = 0;
+  for (Board& b : sawn.boards) {
+    const BoardGrade g0 = grade_board(b, rules);
+    double best = b.volume_m3 * prices.price(rules.grade_name(g0.grade), b.thickness_mm, b.width_mm);
+    double top = 0;
+    for (int gi = 0; gi < g0.grade; ++gi)
+      top = std::max(top, prices.price(rules.grade_name(gi), b.thickness_mm, b.width_mm));
+    const double len = b.length_mm();
+    const int steps = static_cast<int>(std::floor(len / step + 1e-9));
+    const double min_len = std::max(prices.min_length_mm, step);
+    double best_z0 = b.z_begin, best_z1 = b.z_end;
+    for (int i = 0; i <= steps && g0.grade > 0; ++i) {
+      for (int j = 0; i + j <= steps; ++j) {
+        if (i + j == 0) continue;
+        const double z0 = b.z_begin + i * step, z1 = b.z_end - j * step;
+        if (z1 - z0 < min_len - 1e-9) break;
+        // Worth trying only if even the best grade could beat the best so far.
+        if (top * b.volume_m3 * (z1 - z0) / len <= best) break;
+        const Board c = cut(b, z0, z1, false);
+        const BoardGrade g = grade_board(c, rules);
+        const double v = c.volume_m3 * prices.price(rules.grade_name(g.grade), c.thickness_mm, c.width_mm);
+        if (v > best + 1e-12) best = v, best_z0 = z0, best_z1 = z1;
+      }
+    }
+    if (best_z0 != b.z_begin || best_z1 != b.z_end) b = cut_board(b, best_z0, best_z1);
+    sawn.volume_m3 += b.volume_m3;
+  }
+}
+
 Result<PriceTable> prices_from_json(const std::string& text) {
   Result<Json> parsed = parse_format_json(text, kPricesFormatTag);
   if (!parsed) return parsed.error();
@@ -94,6 +169,17 @@ Result<PriceTable> prices_from_json(const std::string& text) {
       if (p == d.end()) return Error(at + ".prices", "missing");
       if (Status s = read_grade_prices(*p, at + ".prices", &dim.per_m3); !s) return s.error();
       t.dimensions.push_back(dim);
+    }
+  }
+  if (auto lengths = j.find("lengths"); lengths != j.end()) {
+    if (!lengths->is_object()) return Error("lengths", "expected an object {step_mm, min_mm}");
+    for (auto [key, dst] : {std::pair{"step_mm", &t.length_step_mm},
+                            std::pair{"min_mm", &t.min_length_mm}}) {
+      auto it = lengths->find(key);
+      if (it == lengths->end()) continue;
+      if (!it->is_number() || !(it->get<double>() >= 0) || it->get<double>() > 12000)
+        return Error(std::string("lengths.") + key, "expected a length of 0-12000 mm");
+      *dst = it->get<double>();
     }
   }
   return t;

@@ -70,7 +70,11 @@ struct BoardRecord {
   double price_per_m3 = 0, value = 0;
   int knots = 0, dead_knots = 0;  // knot crossings on its long sides (when sawing.json lists them)
   double max_wane_mm = 0;         // largest wane over its sides
+  // Cross-cut to value ("offcuts_mm"): the pieces cut off its sawn length at z_begin and z_end.
+  double offcut_begin_mm = 0, offcut_end_mm = 0;
   double length_mm() const { return z_end_mm - z_begin_mm; }
+  // limited_by, and the offcuts where the board was cross-cut ("…; cross-cut, 0.60 m off at z 0.00 m").
+  std::string limit_and_offcuts() const;
 };
 
 // The optimiser's value grid, flat index (rotation × n_x + x) × n_y + y.

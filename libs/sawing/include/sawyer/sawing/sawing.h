@@ -195,6 +195,14 @@ struct SideWane {
   double length_mm = 0;  // length of board along which this side has wane
 };
 
+// One stem sample's share of a board: its z range within the board and the wane there, kept so
+// that the board can be cross-cut shorter afterwards (trim_to_value, value.h).
+struct BoardSlab {
+  double z0 = 0, z1 = 0;        // log frame, within the board's sawn length
+  std::array<float, 4> wane{};  // across each Side, mm
+  float missing_mm2 = 0;        // cross-section area missing to wane, mm²
+};
+
 struct Board {
   int spec = -1;  // index into Pattern::boards
   std::string name;
@@ -208,6 +216,11 @@ struct Board {
   std::array<SideWane, 4> wane;   // by Side
   std::vector<KnotOnSide> knots;  // by Side, then z
   std::vector<int> hidden_knots;  // knot indices inside the board, on no side
+  std::vector<BoardSlab> slabs;   // per stem sample, over the sawn length
+  // The length saw() left before any cross-cut to value (trim_to_value); z_begin / z_end are
+  // the board as sold.
+  double sawn_begin = 0, sawn_end = 0;
+  bool trimmed() const { return z_begin > sawn_begin + 1e-9 || z_end < sawn_end - 1e-9; }
 };
 
 struct DroppedBoard {

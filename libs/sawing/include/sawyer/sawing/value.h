@@ -31,6 +31,11 @@ struct PriceTable {
   };
   std::vector<Dimension> dimensions;
   std::map<std::string, double> default_per_m3;  // for dimensions not listed
+  // Lengths boards are sold in ("lengths": {"step_mm", "min_mm"}, optional): a board may be
+  // cross-cut to a whole number of steps shorter at either end when that is worth more
+  // (trim_to_value). 0: boards are sold as sawn.
+  double length_step_mm = 0;
+  double min_length_mm = 0;
 
   // Price per m³ of a board of `grade` (a grade name or "reject") and nominal size; a dimension
   // matches within 0.5 mm, in either order.
@@ -51,6 +56,18 @@ struct LogValue {
 };
 
 LogValue value_of(const SawResult& sawn, const GradingRules& rules, const PriceTable& prices);
+
+// Cross-cutting to value: each board is cut shorter by whole length steps of the price list at
+// either end (never under its minimum length) where the shorter board, graded again on the knots
+// and wane left on it, is worth more (a dead knot near one end costs a short piece, not a
+// grade). Ties keep the longer board. Nothing happens when the price list has no length step.
+// The board's sawn_begin / sawn_end keep the length before the cut; volume, wane, knots and
+// their along_mm are those of the piece sold.
+void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable& prices);
+
+// The part [z0, z1] of a board sawn by saw() (within its sawn length): knots, wane and volume of
+// that piece.
+Board cut_board(const Board& b, double z0, double z1);
 
 // "sawyer-prices/1" (docs/sawing.md). Errors name the key; the file reader adds the file name.
 Result<PriceTable> prices_from_json(const std::string& text);
