@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "sawyer/core/file_util.h"
 
@@ -108,7 +109,7 @@ Board cut_board(const Board& b, double z0, double z1) { return cut(b, z0, z1, tr
 void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable& prices) {
   const double step = prices.length_step_mm;
   if (!(step > 0)) return;
-  // The best price any grade of this size fetches bounds what a shorter piece can be worth.
+  // The best price any better grade of this size fetches bounds what a shorter piece can be worth.
   sawn.volume_m3 = 0;
   for (Board& b : sawn.boards) {
     const BoardGrade g0 = grade_board(b, rules);
@@ -120,9 +121,40 @@ void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable&
     const int steps = static_cast<int>(std::floor(len / step + 1e-9));
     const double min_len = std::max(prices.min_length_mm, step);
     double best_z0 = b.z_begin, best_z1 = b.z_end;
+    // A step cut off that holds no knot crossing and no wane removes nothing the grade sees:
+    // the piece one step longer is graded the same (or better: fewer knots per metre) and holds
+    // more wood, so such cuts are not tried. has[0][i]: the i-th step from z_begin (1-based)
+    // holds something; has[1][j] likewise from z_end.
+    std::vector<char> has[2];
+    if (g0.grade > 0) {
+      has[0].assign(steps + 1, 0);
+      has[1].assign(steps + 1, 0);
+      auto mark = [&](double z0, double z1) {
+        const int a0 = static_cast<int>(std::floor((z0 - b.z_begin) / step)) + 1;
+        const int a1 = static_cast<int>(std::floor((z1 - b.z_begin) / step)) + 1;
+        for (int a = std::max(a0, 1); a <= std::min(a1, steps); ++a) has[0][a] = 1;
+        const int e0 = static_cast<int>(std::floor((b.z_end - z1) / step)) + 1;
+        const int e1 = static_cast<int>(std::floor((b.z_end - z0) / step)) + 1;
+        for (int e = std::max(e0, 1); e <= std::min(e1, steps); ++e) has[1][e] = 1;
+      };
+      for (const KnotOnSide& k : b.knots) mark(k.z_mm, k.z_mm);
+      for (const BoardSlab& s : b.slabs)
+        if (s.missing_mm2 > 0 || s.wane[0] > 0 || s.wane[1] > 0 || s.wane[2] > 0 || s.wane[3] > 0)
+          mark(s.z0, s.z1);
+    }
+    // A knot too big for the grade above must go: the piece keeps it otherwise, and with it the
+    // grade (the grades are nested, each allowing what the one above allows).
+    int need_i = 0, need_j = 0;
+    if (g0.limit.kind == LimitKind::kSoundKnot || g0.limit.kind == LimitKind::kDeadKnot) {
+      const double z = b.z_begin + g0.limit.along_mm;
+      need_i = static_cast<int>(std::floor((z - b.z_begin) / step)) + 1;
+      need_j = static_cast<int>(std::floor((b.z_end - z) / step)) + 1;
+    }
     for (int i = 0; i <= steps && g0.grade > 0; ++i) {
+      if (i > 0 && !has[0][i]) continue;
       for (int j = 0; i + j <= steps; ++j) {
-        if (i + j == 0) continue;
+        if (i + j == 0 || (j > 0 && !has[1][j])) continue;
+        if (i < need_i && j < need_j) continue;
         const double z0 = b.z_begin + i * step, z1 = b.z_end - j * step;
         if (z1 - z0 < min_len - 1e-9) break;
         // Worth trying only if even the best grade could beat the best so far.
