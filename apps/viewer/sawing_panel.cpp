@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <utility>
 
+#include "sawyer/sawing/sawing_job.h"
+
 namespace sawyer::view {
 namespace {
 
@@ -197,6 +199,10 @@ void SawingPanel::ui() {
   const std::string& cur = session_->prices().currency;
   ImGui::Text("value %.2f %s, horns-down %.2f, gain %+.1f %%", v.value, cur.c_str(),
               session_->horns_down_value(), 100.0 * session_->gain_over_horns_down());
+  // What the log turner and the set-works execute, and how horns-down was found.
+  ImGui::TextWrapped("saw set-up: %s",
+                     sawing::saw_setup_line(session_->saw_log(), session_->position()).c_str());
+  ImGui::TextDisabled("%s", sawing::bow_line(session_->saw_log().bow()).c_str());
   const ImGuiTableFlags tf = ImGuiTableFlags_RowBg | ImGuiTableFlags_BordersInnerV |
                              ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_ScrollY;
   const float rows_h =

@@ -446,7 +446,7 @@ void Viewer::ui_controls(float x, float y, float w, float h) {
         ImGui::TextDisabled("scan QA: passed");
       } else {
         ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.4f, 1.0f), "scan QA: NOT TO BE TRUSTED");
-        for (const std::string& w : qa->warnings) ImGui::TextWrapped("  %s", w.c_str());
+        for (const std::string& line : qa->warnings) ImGui::TextWrapped("  %s", line.c_str());
       }
     }
   }
