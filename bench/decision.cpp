@@ -2,6 +2,7 @@
 // (issue 21, item 3; docs/sawing.md "Decision quality").
 //
 //   decision [--logs N] [--seed S] [--threads T] [--only I[,J...]] [--grading nordic|gost|FILE]
+//            [--scan-draws K]
 //
 // Each of N logs (the three bundled ones first, then generated pine and spruce, 3-4.5 m) is put
 // in a virtual scanner under conditions drawn from the robustness sweep's ranges for whole-log
@@ -20,6 +21,8 @@
 //   - what moved the decision: the recovery again with the true knots on the scanned stem and with
 //     the scanned knots on the true stem, and at the chosen position the boards whose grade the
 //     scanned model got wrong, with the limit that set it on each side.
+// --scan-draws K: the decision on the scanned model counts its scan uncertainty (K draws of its
+// knots, OptimiseOptions::model_draws); the truth is valued as it is.
 // Prints one row per log, then the figures against issue 21's targets.
 #include <algorithm>
 #include <chrono>
@@ -156,7 +159,8 @@ size_t argmax(const std::vector<double>& v) {
 struct Pricing {
   sw::GradingRules rules;
   sw::PriceTable prices;
-  sw::OptimiseOptions options;
+  sw::OptimiseOptions options;  // the truth's (no draws)
+  int draws = 0;                // the deciding model's scan-uncertainty draws
 };
 
 // The chosen position of `decide` (a model of the log) valued on `truth`: the truth's expected
@@ -171,7 +175,9 @@ struct Valued {
 Result<Valued> value_decision(const LogModel& decide, const LogModel& truth, const sw::Pattern& p,
                               const Pricing& pr) {
   const sw::SawLog d_log(decide);
-  Result<sw::OptimiseResult> d = optimise_position(d_log, p, pr.rules, pr.prices, pr.options);
+  sw::OptimiseOptions od = pr.options;
+  od.model_draws = pr.draws;
+  Result<sw::OptimiseResult> d = optimise_position(d_log, p, pr.rules, pr.prices, od);
   if (!d) return d.error();
   const sw::SawLog t_on_d(truth, sw::scanner_position(d_log, {}));
   Result<sw::OptimiseResult> t = optimise_position(t_on_d, p, pr.rules, pr.prices, pr.options);
@@ -314,7 +320,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   const std::string src = SAWYER_SOURCE_DIR;
-  int n_logs = 20, threads = 2;
+  int n_logs = 20, threads = 2, draws = 0;
   std::uint64_t seed = 21;
   std::string grading = "nordic";
   std::vector<int> only;
@@ -324,13 +330,14 @@ int main(int argc, char** argv) {
     else if (k == "--seed") seed = std::strtoull(val.c_str(), nullptr, 10);
     else if (k == "--threads") threads = std::max(1, std::atoi(val.c_str()));
     else if (k == "--grading") grading = val;
+    else if (k == "--scan-draws") draws = std::max(0, std::atoi(val.c_str()));
     else if (k == "--only") {
       std::stringstream ss(val);
       for (std::string t; std::getline(ss, t, ',');) only.push_back(std::atoi(t.c_str()));
     } else {
       std::fprintf(stderr,
                    "usage: decision [--logs N] [--seed S] [--threads T] [--only I[,J...]] "
-                   "[--grading nordic|gost|FILE]\n");
+                   "[--grading nordic|gost|FILE] [--scan-draws K]\n");
       return 2;
     }
   }
@@ -345,13 +352,15 @@ int main(int argc, char** argv) {
   }
   Pricing pr{std::move(rules).value(), std::move(prices).value(), {}};
   pr.options.threads = threads;
+  pr.draws = draws;
 
   std::printf("# Decision quality: positions chosen on scanned logs, valued on the true logs\n\n");
   std::printf("%d logs, seed %llu, grading %s, σ %.0f° / %.0f mm, rotation step %.0f°, offsets "
-              "±%.0f mm; expected values under the positioning error\n\n",
+              "±%.0f mm; expected values under the positioning error; decisions over %d draws of "
+              "the scan's uncertainty\n\n",
               n_logs, static_cast<unsigned long long>(seed), pr.rules.name.c_str(),
               pr.options.sigma_rot_deg, pr.options.sigma_offset_mm, pr.options.rot_step_deg,
-              pr.options.offset_x_max_mm);
+              pr.options.offset_x_max_mm, pr.draws);
   std::printf("| # | log | px mm | dz mm | dried | QA | bow scan / true mm | horns Δ° | claimed | "
               "realised | recovery | surface r | rec. true knots | rec. true stem | s |\n");
   std::printf("|---:|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");

@@ -10,6 +10,7 @@
 #include "sawyer/sawing/optimise.h"
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/uncertainty.h"
 #include "sawyer/sawing/value.h"
 #include "sawyer/test/sawing_fixtures.h"
 
@@ -158,4 +159,77 @@ TEST(Optimise, SymmetricPatternOnASymmetricLogRepeatsEvery180Degrees) {
     }
   EXPECT_GT(spread, 0.0);  // the knots do matter
   EXPECT_NEAR(res.horns_down.value, res.horns_up.value, 1e-6 * res.horns_down.value);
+}
+
+// Value under scan uncertainty (issue 21, item 4). One centred 40 × 150 board; rotation 0 puts
+// a dead 15 mm knot on its face (B for sure: dead ≤ 20 allowed in B, ≤ 10 in A), rotation 90°
+// a sound knot of 24.8 mm (A, 0.2 mm under A's 25 mm; over it the board is C). Nominally 90° is
+// worth more (A against B); with the scan's uncertainty the near-limit knot is over the limit
+// about half the time, so 0° is chosen. The same knot at 15 mm, or a model that did not come
+// from a scan (no spread), keeps 90°.
+TEST(Optimise, AKnotAtAGradeLimitChangesTheChoiceOnlyWhenItsUncertaintySaysItMay) {
+  Result<GradingRules> rules = grading_from_json(R"({"format": "sawyer-grading/1", "grades": [
+    {"name": "A", "face": {"sound_knot": {"mm": 25}, "dead_knot": {"mm": 10}}},
+    {"name": "B", "face": {"sound_knot": {"mm": 25}, "dead_knot": {"mm": 20}}},
+    {"name": "C"}]})");
+  ASSERT_TRUE(rules.ok()) << rules.error().message();
+  Result<PriceTable> prices = prices_from_json(
+      R"({"format": "sawyer-prices/1", "default": {"A": 500, "B": 420, "C": 100}})");
+  ASSERT_TRUE(prices.ok());
+  const Pattern p = test::single_board_pattern(0, 0, 40.0, 150.0);
+  auto scanned_log = [](double near_mm) {
+    LogModel log = cylinder_log(200.0);
+    log.knots.push_back(straight_knot(1, 1500.0, 0.0, 10.0, 15.0));  // dead 15 mm at the face
+    // Sound at the face (r = 20): d(20) = d_dead · 20 / 60.
+    log.knots.push_back(straight_knot(2, 1500.0, 1.5 * kPi, 60.0, 3.0 * near_mm));
+    log.qa = ScanQa{};  // from a scan that passed its QA
+    return log;
+  };
+  OptimiseOptions o;
+  o.rot_step_deg = 90;
+  o.rot_range_deg = 180;
+  o.offset_x_max_mm = 0;
+  o.sigma_rot_deg = 0;
+  o.sigma_offset_mm = 0;
+  o.threads = 2;
+  auto best_rotation = [&](const LogModel& log, int draws, double* value) {
+    OptimiseOptions q = o;
+    q.model_draws = draws;
+    const SawLog saw_log(log);
+    Result<OptimiseResult> r = optimise_position(saw_log, p, rules.value(), prices.value(), q);
+    EXPECT_TRUE(r.ok());
+    if (value) *value = r.value().best.value;
+    return r.ok() ? r.value().best.pos.rotation_deg : -1.0;
+  };
+  const LogModel near = scanned_log(24.8);
+  double v_nominal = 0, v_robust = 0;
+  EXPECT_EQ(best_rotation(near, 0, &v_nominal), 90.0);
+  EXPECT_EQ(best_rotation(near, 16, &v_robust), 0.0);
+  EXPECT_LT(v_robust, v_nominal);  // the expected value is lower once the risk is counted
+
+  const LogModel far = scanned_log(15.0);
+  EXPECT_EQ(best_rotation(far, 0, nullptr), 90.0);
+  EXPECT_EQ(best_rotation(far, 16, nullptr), 90.0);
+
+  LogModel exact = near;
+  exact.qa.reset();  // not from a scan: nothing to draw
+  EXPECT_EQ(best_rotation(exact, 16, nullptr), 90.0);
+  EXPECT_FALSE(scan_spread(exact).any());
+
+  // A failed QA doubles the spread and says so.
+  LogModel failed = near;
+  failed.qa->trusted = false;
+  failed.qa->stages.push_back({"knots", false, 0.2, {}});
+  const ScanSpread s = scan_spread(failed);
+  EXPECT_NEAR(s.knots[0].diameter_sd_mm, 2 * scan_spread(near).knots[0].diameter_sd_mm, 1e-12);
+  EXPECT_NE(s.note.find("QA failed"), std::string::npos) << s.note;
+
+  // Draws are repeatable and come in antithetic pairs.
+  const ScanSpread sn = scan_spread(near);
+  const LogModel d0 = draw_model(near, sn, 0, 5), d1 = draw_model(near, sn, 1, 5);
+  EXPECT_EQ(draw_model(near, sn, 0, 5).knots[1].diameter.d_dead, d0.knots[1].diameter.d_dead);
+  EXPECT_NEAR(d0.knots[1].diameter.d_dead + d1.knots[1].diameter.d_dead,
+              2 * near.knots[1].diameter.d_dead, 1e-9);
+  o.model_draws = 65;
+  EXPECT_FALSE(o.validate(p).ok());
 }

@@ -303,6 +303,9 @@ int run(const RunCli& c) {
                 100 * out.opt.gain_over_horns_down);
   std::printf("saw set-up: %s\n%s\n", sawing::saw_setup_line(out.saw_log, p).c_str(),
               sawing::bow_line(out.saw_log.bow()).c_str());
+  if (out.opt.model_draws > 0)
+    std::printf("values averaged over the model and %d draws of its scan uncertainty (%s)\n",
+                out.opt.model_draws, out.opt.spread_note.c_str());
   if (const std::string note = sawing::offset_edge_note(out.opt); !su.position && !note.empty())
     std::printf("note: %s\n", note.c_str());
   if (std::string z = ct::resampling_summary(scan.source->geometry()); !z.empty())
@@ -365,6 +368,10 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--sigma-rot", o.sigma_rot_deg, "positioning error σ in rotation, degrees")
       ->capture_default_str();
   cmd->add_option("--sigma-offset", o.sigma_offset_mm, "positioning error σ in offset, mm")
+      ->capture_default_str();
+  cmd->add_option("--scan-draws", o.model_draws,
+                  "expected value also over this many draws of the scanned knots' diameter and "
+                  "r_dead within the scan's uncertainty (0: the model as it is; docs/sawing.md)")
       ->capture_default_str();
   cmd->add_option("--db", c->db,
                   "log register (SQLite; default: $SAWYER_DB or ~/.local/share/sawyer/logs.sqlite)");

@@ -75,6 +75,9 @@ void print_sawing_summary(const LogModel& log, const SawSetup& su, const SawingO
   line("horns-down", r.horns_down);
   line("horns-up", r.horns_up);
   line("best (raw)", r.best_raw);
+  if (r.model_draws > 0)
+    std::fprintf(f, "values averaged over the model and %d draws of its scan uncertainty (%s)\n",
+                 r.model_draws, r.spread_note.c_str());
   std::fprintf(f, "%s\n", bow_line(out.saw_log.bow()).c_str());
   std::fprintf(f, "saw set-up at the best position: %s\n",
                saw_setup_line(out.saw_log, r.best.pos).c_str());
@@ -183,6 +186,10 @@ void add_saw_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--sigma-rot", o.sigma_rot_deg, "positioning error σ in rotation, degrees")
       ->capture_default_str();
   cmd->add_option("--sigma-offset", o.sigma_offset_mm, "positioning error σ in offset, mm")
+      ->capture_default_str();
+  cmd->add_option("--scan-draws", o.model_draws,
+                  "expected value also over this many draws of the scanned knots' diameter and "
+                  "r_dead within the scan's uncertainty (0: the model as it is; docs/sawing.md)")
       ->capture_default_str();
   cmd->add_option("--position", c->names.position,
                   "the chosen position, reported beside the best: rot[,x[,y]] (degrees, mm, mm)");

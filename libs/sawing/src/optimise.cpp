@@ -10,6 +10,9 @@
 #include <string>
 #include <thread>
 
+#include "sawyer/sawing/placement.h"
+#include "sawyer/sawing/uncertainty.h"
+
 namespace sawyer::sawing {
 
 namespace {
@@ -120,6 +123,9 @@ Status OptimiseOptions::validate(const Pattern& p) const {
       !st)
     return st;
   if (threads < 0) return Error("threads", "must be ≥ 0");
+  if (model_draws < 0 || model_draws > kMaxModelDraws)
+    return Error("model draws (--scan-draws)",
+                 std::to_string(model_draws) + " is outside 0-" + std::to_string(kMaxModelDraws));
   // Every position is sawn and graded, and the value surface is kept twice: the grid's size is
   // the job's time and memory.
   const double nr = std::round(range / rot_step_deg);
@@ -195,10 +201,33 @@ Result<OptimiseResult> optimise_position(const SawLog& log, const Pattern& patte
     const size_t iy = i % ny, ix = (i / ny) % nx, ir = i / (ny * nx);
     return LogPosition{res.rotations_deg[ir], res.offsets_x_mm[ix], res.offsets_y_mm[iy]};
   };
-  auto value_at = [&](const LogPosition& p) {
-    SawResult r = saw(log, pattern, p);
+  // Draws of the scanned model (uncertainty.h), each set up in `log`'s frame so that a position
+  // means the same cut on all of them.
+  std::vector<LogModel> drawn;
+  std::vector<SawLog> draw_logs;
+  if (o.model_draws > 0) {
+    const ScanSpread spread = scan_spread(log.model());
+    if (spread.any()) {
+      const ScannerPosition frame = scanner_position(log, {});
+      drawn.reserve(o.model_draws);
+      draw_logs.reserve(o.model_draws);
+      for (int k = 0; k < o.model_draws; ++k) {
+        drawn.push_back(draw_model(log.model(), spread, k, o.draw_seed));
+        draw_logs.emplace_back(drawn.back(), frame);
+      }
+      res.model_draws = o.model_draws;
+      res.spread_note = spread.note;
+    }
+  }
+  auto value_on = [&](const SawLog& l, const LogPosition& p) {
+    SawResult r = saw(l, pattern, p);
     trim_to_value(r, rules, prices);
     return value_of(r, rules, prices).value;
+  };
+  auto value_at = [&](const LogPosition& p) {
+    double v = value_on(log, p);
+    for (const SawLog& d : draw_logs) v += value_on(d, p);
+    return v / (1.0 + draw_logs.size());
   };
 
   res.threads = o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());

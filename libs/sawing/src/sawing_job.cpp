@@ -178,7 +178,9 @@ Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOu
       {"rot_step_deg", o.rot_step_deg},       {"rot_range_deg", r.rot_range_deg},
       {"offset_x_max_mm", o.offset_x_max_mm}, {"offset_x_step_mm", o.offset_x_step_mm},
       {"offset_y_max_mm", o.offset_y_max_mm}, {"offset_y_step_mm", o.offset_y_step_mm},
-      {"sigma_rot_deg", o.sigma_rot_deg},     {"sigma_offset_mm", o.sigma_offset_mm}};
+      {"sigma_rot_deg", o.sigma_rot_deg},     {"sigma_offset_mm", o.sigma_offset_mm},
+      {"model_draws", r.model_draws}};
+  if (r.model_draws > 0) j["options"]["scan_spread"] = r.spread_note;
   j["frame"] = frame_json(log);
   j["bow"] = bow_json(out.saw_log.bow());
   j["pattern_point_symmetric"] = r.symmetric;

@@ -17,6 +17,7 @@
 // SawLog (see sawing.h); the inputs must not change while it runs.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -42,6 +43,7 @@ inline constexpr double kMaxOffsetMm = 1500.0;
 inline constexpr double kMaxSigmaRotDeg = 90.0;
 inline constexpr double kMaxSigmaOffsetMm = 100.0;
 inline constexpr double kMaxPositions = 1e6;
+inline constexpr int kMaxModelDraws = 64;
 
 struct OptimiseOptions {
   double rot_step_deg = 2.0;
@@ -52,6 +54,11 @@ struct OptimiseOptions {
   double sigma_offset_mm = 2.0;                           // both offsets; 0: none
   int threads = 0;                                        // 0: std::thread::hardware_concurrency()
   int ranked = 20;  // positions kept in OptimiseResult::ranked
+  // Scan uncertainty (uncertainty.h): the value at a position is the mean over the model and
+  // this many draws of what its knots may be (scan_spread); 0: the model as it is. Costs one
+  // more saw() per draw and position. Nothing changes for a model that did not come from a scan.
+  int model_draws = 0;  // 0..kMaxModelDraws
+  std::uint64_t draw_seed = 1;
   // Range divisible by the step, offsets' max a whole number of steps, sizes > 0, σ ≥ 0; 180 only
   // for a point-symmetric pattern; every value within the limits above and at most
   // kMaxPositions positions. Errors name the option (--rot-step, --offsets, ...).
@@ -81,6 +88,8 @@ struct OptimiseResult {
   std::vector<RankedPosition> ranked;  // best smoothed first
   int positions = 0;
   int threads = 1;
+  int model_draws = 0;      // draws the values averaged over (0 when the model had no spread)
+  std::string spread_note;  // ScanSpread::note, when draws were used
   double seconds = 0;  // wall clock of the grid evaluation
 };
 
