@@ -7,7 +7,8 @@
 //
 //   build-saw/bench/value_bench [--random 20] [--grading nordic|gost|file] [--threads 2]
 //                               [--repeats 3] [--speed-only 1] [--only 2ex|4ex|tt]
-//                               [--speed-rot-step 2]
+//                               [--speed-rot-step 2] [--offsets 10]
+// --offsets 0: rotation only (the published studies' comparison; docs/sawing.md "Value gain").
 //
 // For instruction counts: valgrind --tool=callgrind --toggle-collect='*optimise_position*'
 // build-saw/bench/value_bench --random 0 --speed-only 1 --repeats 1 --threads 1 --only tt
@@ -40,7 +41,7 @@ using namespace sawyer::sawing;
 int main(int argc, char** argv) {
   const std::string src = SAWYER_SOURCE_DIR;
   int random = 20, threads = 2, repeats = 3;
-  double speed_rot_step = 2;
+  double speed_rot_step = 2, offsets = 10;
   bool speed_only = false;
   std::string only;
   std::string grading = "nordic";
@@ -57,6 +58,8 @@ int main(int argc, char** argv) {
       speed_only = std::atoi(argv[i + 1]) != 0;
     else if (!std::strcmp(argv[i], "--speed-rot-step"))
       speed_rot_step = std::atof(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--offsets"))
+      offsets = std::max(0.0, std::atof(argv[i + 1]));
     else if (!std::strcmp(argv[i], "--only"))
       only = argv[i + 1];
   }
@@ -107,6 +110,7 @@ int main(int argc, char** argv) {
                 small_p = two_ex_pattern(small);
   OptimiseOptions o;
   o.threads = threads;
+  o.offset_x_max_mm = offsets;
   std::printf(
       "grading %s, prices %s, σ %.0f° / %.0f mm, rotation step %.0f°, offsets ±%.0f mm "
       "step %.0f; values in %s (expected under the positioning error; at the position "
