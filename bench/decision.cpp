@@ -381,7 +381,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "decision: log %d of %d\n", i + 1, n_logs);
     Row r = run_one(draw(i, seed), src, pr, threads);
     if (!r.ok) {
-      std::printf("| %d | %s | | | | | | | | | | | | | (%s) |\n", r.id, r.log.c_str(), r.note.c_str());
+      // The row's other cells empty, the reason in the last one.
+      std::printf("| %d | %s | | | | | | | | | | | |%s (%s) |\n", r.id, r.log.c_str(),
+                  draws > 0 ? " | | |" : "", r.note.c_str());
       rows.push_back(std::move(r));
       continue;
     }
