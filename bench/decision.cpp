@@ -382,7 +382,7 @@ int main(int argc, char** argv) {
     Row r = run_one(draw(i, seed), src, pr, threads);
     if (!r.ok) {
       // The row's other cells empty, the reason in the last one.
-      std::printf("| %d | %s | | | | | | | | | | | |%s (%s) |\n", r.id, r.log.c_str(),
+      std::printf("| %d | %s | | | | | | | | | | | | |%s (%s) |\n", r.id, r.log.c_str(),
                   draws > 0 ? " | | |" : "", r.note.c_str());
       rows.push_back(std::move(r));
       continue;
