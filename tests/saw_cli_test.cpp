@@ -92,3 +92,34 @@ TEST(SawCli, WritesRankedPositionsBoardsAndSurface) {
   EXPECT_TRUE(j["boards"][0]["knots"].is_array());
   EXPECT_EQ(j["given_position"]["rotation_deg"], 30.0);
 }
+
+// How horns-down was found reaches the user: the bundled spruce_77 bows by about 4 mm, under the
+// 6 mm a direction can be trusted from, so its horns-down is the scanner's orientation and the
+// summary and sawing.json say it is a convention; gran1 (about 13 mm) gets its horns from the
+// bow. Every position states its saw set-up.
+TEST(SawCli, SaysWhetherHornsDownIsFromTheBowOrAConvention) {
+  test::TempDir dir;
+  std::string out;
+  ASSERT_EQ(test::run_sawyer("saw " +
+                                 test::quoted(test::sample_log("spruce_77") / "log.json") +
+                                 " -q --pattern tt --rot-step 30 -o " +
+                                 test::quoted(dir / "s77.json"),
+                             &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("log straight (arc bow 4.1 mm < 6 mm"), std::string::npos) << out;
+  EXPECT_NE(out.find("saw set-up at the best position: turn"), std::string::npos) << out;
+  std::ifstream in(dir / "s77.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["bow"]["straight"].get<bool>());
+  EXPECT_NE(j["bow"]["horns_down"].get<std::string>().find("convention"), std::string::npos);
+  // Straight: rotation 0 leaves the log as it lay in the scanner.
+  EXPECT_NEAR(j["horns_down"]["scanner"]["turn_deg"].get<double>(), 0.0, 1e-9);
+
+  ASSERT_EQ(test::run_sawyer("saw " + gran1() + " -q --rot-step 30 -o " +
+                                 test::quoted(dir / "g.json"),
+                             &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("horns-down from an arc bow of 12.7 mm"), std::string::npos) << out;
+}
