@@ -32,10 +32,12 @@
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "bench_saw.h"
 #include "bench_util.h"
 #include "sawyer/core/vec.h"
 #include "sawyer/ct/phantom.h"
@@ -253,18 +255,13 @@ Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int t
   const ct::VolumeGeometry& g = ph->geometry();
   place_in_scanner_frame(truth, {g.origin.x, g.origin.y}, scan.scanner_frame.value_or(ScannerFrame{}));
 
-  // A 2ex pattern that the scanned log's usable diameter takes (the widest of three).
-  sw::CantOptions narrow, small;
-  narrow.centre_width_mm = 100;
-  small.centre_thickness_mm = 38, small.centre_width_mm = 75;
-  small.side_thickness_mm = 19, small.side_width_mm = 75;
+  // A 2ex pattern that both the scanned and the true log take (the widest of three).
   const sw::SawLog s_log(scan), t_log(truth);
-  sw::Pattern p = sw::two_ex_pattern({});
   const double usable = std::min(s_log.usable_diameter_mm(), t_log.usable_diameter_mm());
-  if (!check_pattern_fits(p, usable, scan.id)) p = sw::two_ex_pattern(narrow);
-  if (!check_pattern_fits(p, usable, scan.id)) p = sw::two_ex_pattern(small);
-  if (!check_pattern_fits(p, usable, scan.id))
+  const std::optional<bench::TwoEx> two_ex = bench::widest_two_ex(usable, scan.id);
+  if (!two_ex)
     return row.note = "no 2ex pattern fits (usable diameter " + std::to_string(usable) + " mm)", row;
+  const sw::Pattern& p = two_ex->pattern;
 
   row.bow_scan = s_log.bow().height_mm, row.bow_true = t_log.bow().height_mm;
   row.straight_scan = s_log.bow().straight, row.straight_true = t_log.bow().straight;

@@ -23,9 +23,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "bench_saw.h"
 #include "sawyer/model/log_generator.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/sawing/grading.h"
@@ -99,15 +101,6 @@ int main(int argc, char** argv) {
     logs.push_back(std::move(m).value());
   }
 
-  CantOptions narrow;
-  narrow.centre_width_mm = 100;
-  CantOptions small;
-  small.centre_thickness_mm = 38;
-  small.centre_width_mm = 75;
-  small.side_thickness_mm = 19;
-  small.side_width_mm = 75;
-  const Pattern wide_p = two_ex_pattern({}), narrow_p = two_ex_pattern(narrow),
-                small_p = two_ex_pattern(small);
   OptimiseOptions o;
   o.threads = threads;
   o.offset_x_max_mm = offsets;
@@ -124,15 +117,14 @@ int main(int argc, char** argv) {
   for (const LogModel& log : logs) {
     if (speed_only) break;
     const SawLog saw_log(log);
-    const Pattern* p = &wide_p;
-    if (!check_pattern_fits(*p, saw_log.usable_diameter_mm(), log.id)) p = &narrow_p;
-    if (!check_pattern_fits(*p, saw_log.usable_diameter_mm(), log.id)) p = &small_p;
-    if (!check_pattern_fits(*p, saw_log.usable_diameter_mm(), log.id)) {
+    const std::optional<bench::TwoEx> p = bench::widest_two_ex(saw_log.usable_diameter_mm(), log.id);
+    if (!p) {
       std::printf("| %s | %zu | (usable diameter %.0f mm: no 2ex fits) | | | | | |\n",
                   log.id.c_str(), log.knots.size(), saw_log.usable_diameter_mm());
       continue;
     }
-    Result<OptimiseResult> r = optimise_position(saw_log, *p, rules.value(), prices.value(), o);
+    Result<OptimiseResult> r =
+        optimise_position(saw_log, p->pattern, rules.value(), prices.value(), o);
     if (!r) {
       std::fprintf(stderr, "%s: %s\n", log.id.c_str(), r.error().message().c_str());
       return 1;
@@ -141,9 +133,7 @@ int main(int argc, char** argv) {
     std::printf(
         "| %s | %zu | %s | %.2f (%.2f) | %.2f (%.2f) | %.2f (%.2f) | %.0f° / %+.0f | %+.1f |\n",
         log.id.c_str(), log.knots.size(),
-        p == &wide_p     ? "2ex 50x150"
-        : p == &narrow_p ? "2ex 50x100"
-                         : "2ex 38x75",
+        p->label,
         v.horns_down.smoothed, v.horns_down.value, v.horns_up.smoothed, v.horns_up.value,
         v.best.smoothed, v.best.value, v.best.pos.rotation_deg, v.best.pos.offset_x_mm,
         100 * v.gain_over_horns_down);

@@ -21,16 +21,6 @@ namespace sawyer::app {
 
 using namespace sawyer::sawing;
 
-// "; cross-cut from 3.90 m: 0.60 m off the butt end" (z_begin side) and / or the top end.
-std::string fmt_offcuts(const Board& b) {
-  char buf[160];
-  const double lo = b.z_begin - b.sawn_begin, hi = b.sawn_end - b.z_end;
-  std::snprintf(buf, sizeof buf, "; cross-cut from %.2f m: %.2f m off at z %.2f m, %.2f m at z %.2f m",
-                (b.sawn_end - b.sawn_begin) * 1e-3, lo * 1e-3, b.sawn_begin * 1e-3, hi * 1e-3,
-                b.sawn_end * 1e-3);
-  return buf;
-}
-
 void print_boards(const SawResult& sawn, const LogValue& v, const GradingRules& rules,
                   const std::string& currency, std::FILE* f) {
   std::fprintf(f, "  %-10s %9s %6s %8s %-6s %9s  %s\n", "board", "size mm", "len m", "m3",
@@ -40,8 +30,7 @@ void print_boards(const SawResult& sawn, const LogValue& v, const GradingRules& 
     char size[32];
     std::snprintf(size, sizeof size, "%.0fx%.0f", b.thickness_mm, b.width_mm);
     std::string limit = describe(v.boards[i].grade.limit, rules);
-    if (b.trimmed())
-      limit += fmt_offcuts(b);
+    if (b.trimmed()) limit += offcut_note(b.sawn_begin, b.sawn_end, b.z_begin, b.z_end);
     std::fprintf(f, "  %-10s %9s %6.2f %8.4f %-6s %9.2f  %s\n", b.name.c_str(), size,
                  b.length_mm() * 1e-3, b.volume_m3,
                  rules.grade_name(v.boards[i].grade.grade).c_str(), v.boards[i].value,

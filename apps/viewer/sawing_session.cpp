@@ -72,17 +72,17 @@ Result<std::unique_ptr<SawingSession>> SawingSession::create(const LogModel& log
   s->rules_ = std::move(rules).value();
   s->prices_ = std::move(prices).value();
   s->choice_ = choice;
-  SawResult hd = saw(*s->saw_log_, s->pattern_, {});
-  trim_to_value(hd, s->rules_, s->prices_);
-  s->horns_down_ = value_of(hd, s->rules_, s->prices_).value;
+  s->horns_down_ =
+      value_of(saw_for_sale(*s->saw_log_, s->pattern_, {}, s->rules_, s->prices_), s->rules_,
+               s->prices_)
+          .value;
   s->set_position({});
   return s;
 }
 
 void SawingSession::set_position(const LogPosition& pos) {
   pos_ = pos;
-  sawn_ = saw(*saw_log_, pattern_, pos_);
-  trim_to_value(sawn_, rules_, prices_);
+  sawn_ = saw_for_sale(*saw_log_, pattern_, pos_, rules_, prices_);
   value_ = value_of(sawn_, rules_, prices_);
 }
 
@@ -92,7 +92,7 @@ double SawingSession::gain_over_horns_down() const {
 
 // saw(): pattern (u, v) = Rot(φ)·(scanner − line_at(z)) − offset.
 double SawingSession::phi() const {
-  return saw_log_->turn_at_zero() + pos_.rotation_deg * kPi / 180.0;
+  return pattern_rotation(*saw_log_, pos_);
 }
 
 std::array<Vec2, 4> SawingSession::rect_in_scanner(double u, double v, double size_u, double size_v,

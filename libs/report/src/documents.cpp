@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "sawyer/sawing/sawing_job.h"
+
 namespace sawyer::report {
 namespace {
 
@@ -541,12 +543,7 @@ std::string horns_note(const BowRecord& b) {
 
 // The chosen position as the log turner and the set-works execute it.
 std::string scanner_setup(const PositionValue& p, bool scanner_frame) {
-  if (!p.has_scanner) return "—";
-  const Vec3 &a = p.centre_at_ends[0], &b = p.centre_at_ends[1];
-  std::string s = fmt("turn %+.1f° from the scan, ", p.turn_deg);
-  s += fmt2("pattern centre (%.1f, %.1f)", a.x, a.y) + fmt(" mm at z %.0f, ", a.z);
-  s += fmt2("(%.1f, %.1f)", b.x, b.y) + fmt(" mm at z %.0f", b.z);
-  return s + (scanner_frame ? " (scanner frame)" : " (log model frame)");
+  return p.has_scanner ? sawing::saw_setup_text(p.turn_deg, p.centre_at_ends, scanner_frame) : "—";
 }
 
 Rows position_rows(const Content& c) {

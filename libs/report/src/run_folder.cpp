@@ -7,6 +7,7 @@
 
 #include "sawyer/core/file_util.h"
 #include "sawyer/model/log_json.h"
+#include "sawyer/sawing/sawing_job.h"
 
 namespace sawyer::report {
 namespace {
@@ -142,12 +143,8 @@ Result<BoardRecord> board(const Json& j, const std::string& where) {
 
 std::string BoardRecord::limit_and_offcuts() const {
   if (offcut_begin_mm <= 0 && offcut_end_mm <= 0) return limited_by;
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "; cross-cut from %.2f m: %.2f m off at z %.2f m, %.2f m at z %.2f m",
-                (length_mm() + offcut_begin_mm + offcut_end_mm) * 1e-3, offcut_begin_mm * 1e-3,
-                (z_begin_mm - offcut_begin_mm) * 1e-3, offcut_end_mm * 1e-3,
-                (z_end_mm + offcut_end_mm) * 1e-3);
-  return limited_by + buf;
+  return limited_by + sawing::offcut_note(z_begin_mm - offcut_begin_mm, z_end_mm + offcut_end_mm,
+                                          z_begin_mm, z_end_mm);
 }
 
 namespace {

@@ -220,9 +220,7 @@ Result<OptimiseResult> optimise_position(const SawLog& log, const Pattern& patte
     }
   }
   auto value_on = [&](const SawLog& l, const LogPosition& p) {
-    SawResult r = saw(l, pattern, p);
-    trim_to_value(r, rules, prices);
-    return value_of(r, rules, prices).value;
+    return value_of(saw_for_sale(l, pattern, p, rules, prices), rules, prices).value;
   };
   auto value_at = [&](const LogPosition& p) {
     double v = value_on(log, p);

@@ -45,6 +45,19 @@ ScannerPosition scanner_position(const SawLog& log, const LogPosition& pos) {
   return s;
 }
 
+std::array<Vec3, 2> pattern_centre_at_ends(const SawLog& log, const LogPosition& pos) {
+  const ScannerPosition s = scanner_position(log, pos);
+  const Stem& stem = log.model().stem;
+  std::array<Vec3, 2> ends;
+  const double zs[2] = {stem.z_begin(), stem.z_end()};
+  for (int e = 0; e < 2; ++e) {
+    const double sz = to_scanner_z(log.model(), zs[e]);
+    const Vec2 c = s.centre_at(sz);
+    ends[e] = {c.x, c.y, sz};
+  }
+  return ends;
+}
+
 BoardPlacement board_placement(const SawLog& log, const Board& b, const LogPosition& pos) {
   const double zmid = 0.5 * (b.z_begin + b.z_end);
   const Vec2 centre = pattern_to_scanner(log, pos, b.u_mm, b.v_mm, zmid);

@@ -2,6 +2,7 @@
 #include <atomic>
 #include <cmath>
 
+#include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/sawing.h"
 
 namespace sawyer::sawing {
@@ -93,12 +94,11 @@ SawLog::SawLog(const LogModel& model, int knot_samples) : model_(&model) {
 
 SawLog::SawLog(const LogModel& model, const ScannerPosition& at, int knot_samples)
     : model_(&model) {
-  // Scanner z = z0 + z_dir·z (z_dir = ±1): the line's height and slope in the model's z.
-  const ScannerFrame f = model.scanner_frame.value_or(ScannerFrame{});
-  const double dir = f.z_dir < 0 ? -1.0 : 1.0;
-  line_z_ = (at.centre_z - f.z0_mm) * dir;
+  // The line's height and slope in the model's z (scanner z = z0 ± z).
+  const bool flipped = model.scanner_frame && model.scanner_frame->z_dir < 0;
+  line_z_ = from_scanner_z(model, at.centre_z);
   line_p_ = at.centre;
-  line_s_ = dir * at.slope;
+  line_s_ = (flipped ? -1.0 : 1.0) * at.slope;
   bow_ = detect_bow(model.stem);
   turn0_ = at.turn_deg * kPi / 180.0;
   build(knot_samples);

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "sawyer/sawing/placement.h"
+
 namespace sawyer::sawing {
 
 const char* side_name(Side s) {
@@ -376,7 +378,7 @@ struct PlacedKnot {
 SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos) {
   SawResult res;
   const Stem& stem = log.model().stem;
-  const double phi = log.turn_at_zero() + pos.rotation_deg * kPi / 180.0;
+  const double phi = pattern_rotation(log, pos);
   Placement pl{&log, std::cos(phi), std::sin(phi), pos.offset_x_mm, pos.offset_y_mm};
   thread_local std::vector<Vec2> pith_uv;
   thread_local std::vector<double> inner_r2;

@@ -46,12 +46,12 @@ Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
                                                  setup.prices, setup.options, progress);
   if (!opt) return opt.error();
   out.opt = std::move(opt.value());
-  out.best_sawn = saw(out.saw_log, setup.pattern, out.opt.best.pos);
-  trim_to_value(out.best_sawn, setup.rules, setup.prices);
+  out.best_sawn =
+      saw_for_sale(out.saw_log, setup.pattern, out.opt.best.pos, setup.rules, setup.prices);
   out.best_value = value_of(out.best_sawn, setup.rules, setup.prices);
   if (setup.position) {
-    out.given_sawn = saw(out.saw_log, setup.pattern, *setup.position);
-    trim_to_value(*out.given_sawn, setup.rules, setup.prices);
+    out.given_sawn =
+        saw_for_sale(out.saw_log, setup.pattern, *setup.position, setup.rules, setup.prices);
     out.given_value = value_of(*out.given_sawn, setup.rules, setup.prices);
   }
   return out;
@@ -84,18 +84,27 @@ std::string bow_line(const BowInfo& b) {
   return buf;
 }
 
-std::string saw_setup_line(const SawLog& log, const LogPosition& pos) {
-  const ScannerPosition s = scanner_position(log, pos);
-  const Stem& stem = log.model().stem;
-  const double z0 = to_scanner_z(log.model(), stem.z_begin());
-  const double z1 = to_scanner_z(log.model(), stem.z_end());
-  const Vec2 a = s.centre_at(z0), b = s.centre_at(z1);
+std::string saw_setup_text(double turn_deg, const std::array<Vec3, 2>& ends, bool scanner_frame) {
+  const Vec3 &a = ends[0], &b = ends[1];
   char buf[256];
   std::snprintf(buf, sizeof buf,
                 "turn %+.1f° from the scan; pattern centre (%.1f, %.1f) mm at z %.0f, (%.1f, "
                 "%.1f) mm at z %.0f (%s frame)",
-                s.turn_deg, a.x, a.y, z0, b.x, b.y, z1,
-                log.model().scanner_frame ? "scanner" : "log model");
+                turn_deg, a.x, a.y, a.z, b.x, b.y, b.z, scanner_frame ? "scanner" : "log model");
+  return buf;
+}
+
+std::string saw_setup_line(const SawLog& log, const LogPosition& pos) {
+  return saw_setup_text(scanner_position(log, pos).turn_deg, pattern_centre_at_ends(log, pos),
+                        log.model().scanner_frame.has_value());
+}
+
+std::string offcut_note(double sawn_begin, double sawn_end, double z_begin, double z_end) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf,
+                "; cross-cut from %.2f m: %.2f m off at z %.2f m, %.2f m at z %.2f m",
+                (sawn_end - sawn_begin) * 1e-3, (z_begin - sawn_begin) * 1e-3, sawn_begin * 1e-3,
+                (sawn_end - z_end) * 1e-3, sawn_end * 1e-3);
   return buf;
 }
 
@@ -104,15 +113,9 @@ namespace {
 // The position as the saw executes it: the turn from the log's orientation in the scanner and
 // the pattern centre at the log's two ends, in scanner x, y, z (docs/sawing.md, "Frames").
 Json scanner_json(const SawLog& log, const LogPosition& pos) {
-  const ScannerPosition s = scanner_position(log, pos);
-  const Stem& stem = log.model().stem;
   Json ends = Json::array();
-  for (const double z : {stem.z_begin(), stem.z_end()}) {
-    const double sz = to_scanner_z(log.model(), z);
-    const Vec2 c = s.centre_at(sz);
-    ends.push_back({c.x, c.y, sz});
-  }
-  return {{"turn_deg", s.turn_deg}, {"pattern_centre_at_ends_mm", ends}};
+  for (const Vec3& c : pattern_centre_at_ends(log, pos)) ends.push_back({c.x, c.y, c.z});
+  return {{"turn_deg", scanner_position(log, pos).turn_deg}, {"pattern_centre_at_ends_mm", ends}};
 }
 
 Json ranked_json(const SawLog& log, const RankedPosition& r) {

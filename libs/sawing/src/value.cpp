@@ -77,7 +77,7 @@ Board cut(const Board& b, double z0, double z1, bool keep_slabs) {
   c.thickness_axis = b.thickness_axis;
   c.u_mm = b.u_mm, c.v_mm = b.v_mm;
   c.sawn_begin = b.sawn_begin, c.sawn_end = b.sawn_end;
-  for (int k : b.hidden_knots) c.hidden_knots.push_back(k);
+  c.hidden_knots = b.hidden_knots;
   c.z_begin = z0;
   c.z_end = z1;
   c.box_volume_m3 = b.thickness_mm * b.width_mm * (z1 - z0) * 1e-9;
@@ -168,6 +168,13 @@ void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable&
     if (best_z0 != b.z_begin || best_z1 != b.z_end) b = cut_board(b, best_z0, best_z1);
     sawn.volume_m3 += b.volume_m3;
   }
+}
+
+SawResult saw_for_sale(const SawLog& log, const Pattern& pattern, const LogPosition& pos,
+                       const GradingRules& rules, const PriceTable& prices) {
+  SawResult r = saw(log, pattern, pos);
+  trim_to_value(r, rules, prices);
+  return r;
 }
 
 Result<PriceTable> prices_from_json(const std::string& text) {

@@ -6,6 +6,8 @@
 //   Vec2 corner = pattern_to_scanner(log, pos, u, v, z);         // any pattern point
 #pragma once
 
+#include <array>
+
 #include "sawyer/core/vec.h"
 #include "sawyer/sawing/sawing.h"
 
@@ -33,6 +35,10 @@ Vec2 pattern_to_scanner(const SawLog& log, const LogPosition& pos, double u, dou
 // `pos` on `log` as the saw executes it (sawing.h, ScannerPosition): the turn, and the pattern
 // centre's line in scanner x, y against scanner z (its point at the log's mid-length).
 ScannerPosition scanner_position(const SawLog& log, const LogPosition& pos);
+
+// The pattern centre of `pos` at the log's two ends (its first and last slab edges): scanner
+// x, y, z, the points sawing.json and the summaries state.
+std::array<Vec3, 2> pattern_centre_at_ends(const SawLog& log, const LogPosition& pos);
 
 // A model height's scanner z, and back (LogModel::scanner_frame; the identity without one).
 double to_scanner_z(const LogModel& model, double z);

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -70,6 +71,12 @@ std::string offset_edge_note(const OptimiseResult& result);
 // `pos` as the saw executes it (turn from the scan, pattern centre at the log's ends).
 std::string bow_line(const BowInfo& bow);
 std::string saw_setup_line(const SawLog& log, const LogPosition& pos);
+// The same text from its parts (a position read back from sawing.json, for the report).
+std::string saw_setup_text(double turn_deg, const std::array<Vec3, 2>& pattern_centre_at_ends,
+                           bool scanner_frame);
+// "; cross-cut from 3.90 m: 0.60 m off at z 0.05 m, 0.00 m at z 3.95 m" for a board sold as
+// [z_begin, z_end] of its sawn [sawn_begin, sawn_end] (trim_to_value), for the board tables.
+std::string offcut_note(double sawn_begin, double sawn_end, double z_begin, double z_end);
 
 // The `sawyer-sawing/1` file: names, options, best / horns-down / horns-up with their values,
 // gains, ranked positions, the boards at the best position (with details), the given position

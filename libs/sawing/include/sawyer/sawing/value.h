@@ -65,6 +65,10 @@ LogValue value_of(const SawResult& sawn, const GradingRules& rules, const PriceT
 // their along_mm are those of the piece sold.
 void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable& prices);
 
+// The boards as sold at `pos`: saw(), then trim_to_value().
+SawResult saw_for_sale(const SawLog& log, const Pattern& pattern, const LogPosition& pos,
+                       const GradingRules& rules, const PriceTable& prices);
+
 // The part [z0, z1] of a board sawn by saw() (within its sawn length): knots, wane and volume of
 // that piece.
 Board cut_board(const Board& b, double z0, double z1);
