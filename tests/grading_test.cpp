@@ -301,4 +301,10 @@ TEST(Value, ABoardWithADeadKnotNearOneEndIsCrossCutAndWorthMore) {
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message().find("lengths.step_mm"), std::string::npos)
       << bad.error().message();
+  // So is a step so short that every board would be millions of candidate pieces.
+  Result<PriceTable> tiny = prices_from_json(R"({"format": "sawyer-prices/1",
+      "default": {"A": 500}, "lengths": {"step_mm": 0.5}})");
+  ASSERT_FALSE(tiny.ok());
+  EXPECT_NE(tiny.error().message().find("lengths.step_mm: a step of 0.5"), std::string::npos)
+      << tiny.error().message();
 }

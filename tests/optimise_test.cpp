@@ -232,4 +232,14 @@ TEST(Optimise, AKnotAtAGradeLimitChangesTheChoiceOnlyWhenItsUncertaintySaysItMay
               2 * near.knots[1].diameter.d_dead, 1e-9);
   o.model_draws = 65;
   EXPECT_FALSE(o.validate(p).ok());
+  // Draws multiply the sawings: 64 draws of a 90 × 201 grid (1.18 M sawings) are refused.
+  OptimiseOptions big;
+  big.offset_x_max_mm = 200;
+  big.model_draws = 64;
+  const Status s_big = big.validate(p);
+  ASSERT_FALSE(s_big.ok());
+  EXPECT_NE(s_big.error().message().find("--scan-draws"), std::string::npos)
+      << s_big.error().message();
+  big.model_draws = 0;
+  EXPECT_TRUE(big.validate(p).ok());
 }

@@ -141,6 +141,12 @@ Status OptimiseOptions::validate(const Pattern& p) const {
                      ", --offsets-y " + num(offset_y_max_mm) + " --offset-y-step " +
                      num(offset_y_step_mm) + ") is more than the " + num(kMaxPositions) +
                      " allowed; use coarser steps or narrower offsets");
+  // Each draw of the scan's uncertainty saws every position once more.
+  if (nr * nx * ny * (1 + model_draws) > kMaxPositions)
+    return Error("model draws (--scan-draws)",
+                 num(nr * nx * ny) + " positions × " + num(1 + model_draws) +
+                     " models is more than the " + num(kMaxPositions) +
+                     " sawings allowed; use fewer draws or a coarser grid");
   return Status::Ok();
 }
 

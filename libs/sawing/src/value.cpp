@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "sawyer/core/file_util.h"
@@ -219,6 +220,14 @@ Result<PriceTable> prices_from_json(const std::string& text) {
       if (!it->is_number() || !(it->get<double>() >= 0) || it->get<double>() > 12000)
         return Error(std::string("lengths.") + key, "expected a length of 0-12000 mm");
       *dst = it->get<double>();
+    }
+    // Cross-cutting tries pieces a whole number of steps shorter at either end: a step of a few
+    // millimetres would be millions of pieces per board. Mills cut in steps of 300 mm or a foot.
+    if (t.length_step_mm > 0 && t.length_step_mm < kMinLengthStepMm) {
+      char buf[120];
+      std::snprintf(buf, sizeof buf, "a step of %g mm is under the %g mm allowed (0: no cross-cutting)",
+                    t.length_step_mm, kMinLengthStepMm);
+      return Error("lengths.step_mm", buf);
     }
   }
   return t;

@@ -22,6 +22,9 @@
 
 namespace sawyer::sawing {
 
+// The shortest length step a price list may give (PriceTable::length_step_mm, when not 0).
+inline constexpr double kMinLengthStepMm = 100.0;
+
 struct PriceTable {
   std::string name;
   std::string currency = "EUR";
