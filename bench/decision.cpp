@@ -298,9 +298,10 @@ Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int t
 
   // Boards at the chosen position whose grade the scan got wrong.
   const sw::LogPosition chosen = v.value().decided.best.pos;
-  const sw::SawResult on_scan = saw(s_log, p, chosen);
+  // As sold (cross-cut to value), the boards the values above are of.
+  const sw::SawResult on_scan = saw_for_sale(s_log, p, chosen, pr.rules, pr.prices);
   const sw::SawLog t_at(truth, sw::scanner_position(s_log, chosen));
-  const sw::SawResult on_truth = saw(t_at, p, {});
+  const sw::SawResult on_truth = saw_for_sale(t_at, p, {}, pr.rules, pr.prices);
   for (const sw::Board& bs : on_scan.boards)
     for (const sw::Board& bt : on_truth.boards) {
       if (bs.spec != bt.spec) continue;
