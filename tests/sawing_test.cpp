@@ -800,6 +800,70 @@ TEST(Sawing, FastPathEqualsTheReferenceOnRealAndGeneratedLogs) {
   EXPECT_GT(waned, 100);  // the positions exercise the wane code, not only clear boards
 }
 
+// Cross-cutting to value (trim_to_value) finds its piece from one pass over each board's slabs
+// and skips the cuts that cannot pay; trying every piece in the price list's length steps with
+// cut_board() and grade_board() must find no piece worth more. Real and generated logs, every
+// pattern, random positions, two length steps.
+TEST(Sawing, CrossCuttingFindsTheBestPieceThatTryingEveryPieceFinds) {
+  std::vector<LogModel> logs{test::sample_model("gran1_spruce")};
+  GeneratorOptions go;
+  go.species = Species::kPine;
+  go.seed = 7;
+  Result<LogModel> gen = generate_log(go);
+  ASSERT_TRUE(gen.ok()) << gen.error().message();
+  logs.push_back(std::move(gen.value()));
+  const GradingRules rules = grading_by_name("nordic").value();
+  PriceTable prices = prices_by_name("").value();
+  ASSERT_GT(prices.length_step_mm, 0);  // the bundled list cross-cuts
+  CantOptions four;
+  four.centre_thickness_mm = 38;
+  four.centre_width_mm = 100;
+  four.side_thickness_mm = 19;
+  const Pattern patterns[] = {two_ex_pattern({}), four_ex_pattern(four),
+                              through_and_through_pattern(7, 25.0)};
+  auto worth = [&](const Board& b) {
+    return b.volume_m3 *
+           prices.price(rules.grade_name(grade_board(b, rules).grade), b.thickness_mm, b.width_mm);
+  };
+  std::mt19937_64 rng(20261203);
+  std::uniform_real_distribution<double> rot(0, 360), ox(-12, 12);
+  int boards = 0, cut = 0;
+  for (const double step : {300.0, 150.0}) {
+    prices.length_step_mm = step;
+    for (const LogModel& log : logs) {
+      const SawLog saw_log(log);
+      for (const Pattern& p : patterns) {
+        for (int k = 0; k < 6; ++k) {
+          const sawing::LogPosition pos{rot(rng), ox(rng), 0.0};
+          SCOPED_TRACE(log.id + " " + p.name + " step " + std::to_string(step) + " at " +
+                       std::to_string(pos.rotation_deg) + "° " + std::to_string(pos.offset_x_mm));
+          const SawResult sawn = saw(saw_log, p, pos);
+          SawResult sold = sawn;
+          trim_to_value(sold, rules, prices);
+          ASSERT_EQ(sold.boards.size(), sawn.boards.size());
+          for (size_t bi = 0; bi < sawn.boards.size(); ++bi) {
+            const Board& b = sawn.boards[bi];
+            double best = worth(b);
+            const int steps = static_cast<int>(std::floor(b.length_mm() / step + 1e-9));
+            const double min_len = std::max(prices.min_length_mm, step);
+            for (int i = 0; i <= steps; ++i)
+              for (int j = 0; i + j <= steps; ++j) {
+                const double z0 = b.z_begin + i * step, z1 = b.z_end - j * step;
+                if (z1 - z0 >= min_len - 1e-9) best = std::max(best, worth(cut_board(b, z0, z1)));
+              }
+            const Board& s = sold.boards[bi];
+            EXPECT_NEAR(worth(s), best, 1e-9 * std::max(1.0, best)) << "board " << bi;
+            ++boards;
+            cut += s.trimmed();
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(boards, 150);
+  EXPECT_GT(cut, 10);  // the positions exercise the cross-cut, not only boards sold whole
+}
+
 // A position chosen on one model of a log, stated in the scanner frame, cuts the same saw lines
 // on the model itself and on any other model of that log in the same scanner (here: a "scan" of
 // it whose pith, outline and knots are slightly off, and whose z starts 5 mm later).

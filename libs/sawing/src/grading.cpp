@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -103,25 +104,35 @@ Status GradingRules::validate() const {
   return Status::Ok();
 }
 
-BoardGrade grade_board(const Board& board, const GradingRules& rules) {
+namespace {
+
+// Everything the rules look at: per side its knot figures and wane, and the board's size.
+struct GradeInput {
   std::array<SideStats, 4> st{};
-  for (size_t i = 0; i < board.knots.size(); ++i) {
-    const KnotOnSide& k = board.knots[i];
-    if (k.width_mm < rules.min_knot_mm) continue;
-    SideStats& s = st[static_cast<int>(k.side)];
-    ++s.count;
-    if (k.dead) {
-      ++s.dead_count;
-      if (k.width_mm > s.dead_mm || s.largest_dead < 0)
-        s.dead_mm = k.width_mm, s.largest_dead = static_cast<int>(i);
-    } else if (k.width_mm > s.sound_mm || s.largest_sound < 0) {
-      s.sound_mm = k.width_mm, s.largest_sound = static_cast<int>(i);
-    }
+  const SideWane* wane = nullptr;  // [4]
+  double length_mm = 0, width_mm = 0, thickness_mm = 0;
+};
+
+void count_knot(const KnotOnSide& k, int index, const GradingRules& rules,
+                std::array<SideStats, 4>* st) {
+  if (k.width_mm < rules.min_knot_mm) return;
+  SideStats& s = (*st)[static_cast<int>(k.side)];
+  ++s.count;
+  if (k.dead) {
+    ++s.dead_count;
+    if (k.width_mm > s.dead_mm || s.largest_dead < 0) s.dead_mm = k.width_mm, s.largest_dead = index;
+  } else if (k.width_mm > s.sound_mm || s.largest_sound < 0) {
+    s.sound_mm = k.width_mm, s.largest_sound = index;
   }
-  const double length_m = board.length_mm() * 1e-3;
+}
+
+// `knots`: what SideStats' indices point into (for the limit's knot figures).
+BoardGrade grade_input(const GradeInput& in, const std::vector<KnotOnSide>& knots,
+                       const GradingRules& rules) {
+  const double length_m = in.length_mm * 1e-3;
   double wane_length = 0;
-  for (const SideWane& w : board.wane) wane_length = std::max(wane_length, w.length_mm);
-  const double wane_length_fraction = board.length_mm() > 0 ? wane_length / board.length_mm() : 0;
+  for (int k = 0; k < 4; ++k) wane_length = std::max(wane_length, in.wane[k].length_mm);
+  const double wane_length_fraction = in.length_mm > 0 ? wane_length / in.length_mm : 0;
 
   BoardGrade out;
   GradeLimit last;
@@ -133,15 +144,15 @@ BoardGrade grade_board(const Board& board, const GradingRules& rules) {
       const Side side = static_cast<Side>(si);
       const bool face = is_face(side);
       const SideRules& r = face ? rule.face : rule.edge;
-      const double side_width = face ? board.width_mm : board.thickness_mm;
-      const SideStats& s = st[si];
+      const double side_width = face ? in.width_mm : in.thickness_mm;
+      const SideStats& s = in.st[si];
       fail.side = side;
       auto knot_fail = [&](LimitKind kind, int knot, double allowed) {
         fail.kind = kind;
         fail.knot = knot;
-        fail.measured = board.knots[knot].width_mm;
+        fail.measured = knots[knot].width_mm;
         fail.allowed = allowed;
-        fail.along_mm = board.knots[knot].along_mm;
+        fail.along_mm = knots[knot].along_mm;
       };
       auto count_fail = [&](LimitKind kind, double measured, double allowed) {
         fail.kind = kind;
@@ -163,8 +174,8 @@ BoardGrade grade_board(const Board& board, const GradingRules& rules) {
         count_fail(LimitKind::kKnotCount, s.count, per_m_allowed);
       else if (s.count > r.knots_per_board)
         count_fail(LimitKind::kKnotsPerBoard, s.count, r.knots_per_board);
-      else if (side_width > 0 && board.wane[si].max_mm / side_width > r.wane_fraction)
-        count_fail(LimitKind::kWane, board.wane[si].max_mm / side_width, r.wane_fraction);
+      else if (side_width > 0 && in.wane[si].max_mm / side_width > r.wane_fraction)
+        count_fail(LimitKind::kWane, in.wane[si].max_mm / side_width, r.wane_fraction);
     }
     if (fail.kind == LimitKind::kNone && wane_length_fraction > rule.wane_length_fraction) {
       fail.kind = LimitKind::kWaneLength;
@@ -181,6 +192,34 @@ BoardGrade grade_board(const Board& board, const GradingRules& rules) {
   out.grade = rules.reject();
   out.limit = last;
   return out;
+}
+
+}  // namespace
+
+BoardGrade grade_board(const Board& board, const GradingRules& rules) {
+  GradeInput in;
+  for (size_t i = 0; i < board.knots.size(); ++i)
+    count_knot(board.knots[i], static_cast<int>(i), rules, &in.st);
+  in.wane = board.wane.data();
+  in.length_mm = board.length_mm();
+  in.width_mm = board.width_mm;
+  in.thickness_mm = board.thickness_mm;
+  return grade_input(in, board.knots, rules);
+}
+
+int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
+                const GradingRules& rules) {
+  GradeInput in;
+  for (size_t i = 0; i < board.knots.size(); ++i) {
+    const KnotOnSide& k = board.knots[i];
+    if (k.z_mm < z0 || k.z_mm > z1) continue;  // as cut_board() keeps them
+    count_knot(k, static_cast<int>(i), rules, &in.st);
+  }
+  in.wane = wane.data();
+  in.length_mm = z1 - z0;
+  in.width_mm = board.width_mm;
+  in.thickness_mm = board.thickness_mm;
+  return grade_input(in, board.knots, rules).grade;
 }
 
 std::string describe(const GradeLimit& l, const GradingRules& rules) {

@@ -66,10 +66,7 @@ LogValue value_of(const SawResult& sawn, const GradingRules& rules, const PriceT
   return out;
 }
 
-namespace {
-
-// cut_board(); without the piece's slabs when only its grade and volume are wanted.
-Board cut(const Board& b, double z0, double z1, bool keep_slabs) {
+Board cut_board(const Board& b, double z0, double z1) {
   // Every field but the per-sample and per-knot lists, which are rebuilt for the piece.
   Board c;
   c.spec = b.spec;
@@ -92,7 +89,7 @@ Board cut(const Board& b, double z0, double z1, bool keep_slabs) {
   for (const BoardSlab& s : b.slabs) {
     const double ov = std::min(s.z1, z1) - std::max(s.z0, z0);
     if (ov <= 0) continue;
-    if (keep_slabs) c.slabs.push_back({std::max(s.z0, z0), std::min(s.z1, z1), s.wane, s.missing_mm2});
+    c.slabs.push_back({std::max(s.z0, z0), std::min(s.z1, z1), s.wane, s.missing_mm2});
     missing += s.missing_mm2 * ov;
     for (int k = 0; k < 4; ++k) {
       c.wane[k].max_mm = std::max(c.wane[k].max_mm, static_cast<double>(s.wane[k]));
@@ -103,46 +100,107 @@ Board cut(const Board& b, double z0, double z1, bool keep_slabs) {
   return c;
 }
 
-}  // namespace
+namespace {
 
-Board cut_board(const Board& b, double z0, double z1) { return cut(b, z0, z1, true); }
+// The wane and missing area of any piece [A_i, B_j] of a board, where A_i = z_begin + i·step and
+// B_j = z_end − j·step are the cross-cuts trim_to_value tries, from one pass over the board's
+// slabs instead of one per piece. The cut points, sorted, split the board into at most 2·steps + 1
+// intervals; per interval each side's largest wane, and at each point the running integrals of
+// the missing area and of each side's wane length. A piece's largest wane is the largest over its
+// intervals (a slab reaching into an interval counts there, as cut_board() counts every slab the
+// piece overlaps), its sums the differences of the integrals.
+class PieceWane {
+ public:
+  PieceWane(const Board& b, double step, int steps) {
+    pts_.clear();
+    for (int i = 0; i <= steps; ++i) pts_.push_back(b.z_begin + i * step);
+    for (int j = 0; j <= steps; ++j) pts_.push_back(b.z_end - j * step);
+    std::sort(pts_.begin(), pts_.end());
+    pts_.erase(std::unique(pts_.begin(), pts_.end()), pts_.end());
+    const size_t m = pts_.size();
+    max_.assign(m, {0, 0, 0, 0});
+    sum_.assign(m, {0, 0, 0, 0, 0});  // at point p: ∫ from pts_[0] of missing, wane length ×4
+    std::array<double, 5> run{0, 0, 0, 0, 0};
+    size_t s = 0;
+    for (size_t e = 0; e + 1 < m; ++e) {
+      const double e0 = pts_[e], e1 = pts_[e + 1];
+      while (s < b.slabs.size() && b.slabs[s].z1 <= e0) ++s;
+      for (size_t t = s; t < b.slabs.size() && b.slabs[t].z0 < e1; ++t) {
+        const BoardSlab& sl = b.slabs[t];
+        const double ov = std::min(sl.z1, e1) - std::max(sl.z0, e0);
+        if (ov <= 0) continue;
+        run[0] += sl.missing_mm2 * ov;
+        for (int k = 0; k < 4; ++k) {
+          max_[e][k] = std::max(max_[e][k], static_cast<double>(sl.wane[k]));
+          if (sl.wane[k] > 0) run[1 + k] += ov;
+        }
+      }
+      sum_[e + 1] = run;
+    }
+  }
+  // Index of a cut point (one of the A_i or B_j it was built with).
+  int at(double z) const {
+    return static_cast<int>(std::lower_bound(pts_.begin(), pts_.end(), z) - pts_.begin());
+  }
+  // The piece between points p0 < p1: its wane per side and its missing area × length (mm³).
+  double piece(int p0, int p1, std::array<SideWane, 4>* wane) const {
+    for (int k = 0; k < 4; ++k) {
+      double mx = 0;
+      for (int e = p0; e < p1; ++e) mx = std::max(mx, max_[e][k]);
+      (*wane)[k].max_mm = mx;
+      (*wane)[k].length_mm = sum_[p1][1 + k] - sum_[p0][1 + k];
+    }
+    return sum_[p1][0] - sum_[p0][0];
+  }
+
+ private:
+  std::vector<double> pts_;
+  std::vector<std::array<double, 4>> max_;
+  std::vector<std::array<double, 5>> sum_;
+};
+
+}  // namespace
 
 void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable& prices) {
   const double step = prices.length_step_mm;
   if (!(step > 0)) return;
-  // The best price any better grade of this size fetches bounds what a shorter piece can be worth.
+  std::vector<double> price(rules.reject() + 1);
   sawn.volume_m3 = 0;
   for (Board& b : sawn.boards) {
+    for (int g = 0; g <= rules.reject(); ++g)
+      price[g] = prices.price(rules.grade_name(g), b.thickness_mm, b.width_mm);
     const BoardGrade g0 = grade_board(b, rules);
-    double best = b.volume_m3 * prices.price(rules.grade_name(g0.grade), b.thickness_mm, b.width_mm);
+    double best = b.volume_m3 * price[g0.grade];
+    // The best price any better grade of this size fetches bounds what a shorter piece can be worth.
     double top = 0;
-    for (int gi = 0; gi < g0.grade; ++gi)
-      top = std::max(top, prices.price(rules.grade_name(gi), b.thickness_mm, b.width_mm));
+    for (int gi = 0; gi < g0.grade; ++gi) top = std::max(top, price[gi]);
     const double len = b.length_mm();
     const int steps = static_cast<int>(std::floor(len / step + 1e-9));
     const double min_len = std::max(prices.min_length_mm, step);
     double best_z0 = b.z_begin, best_z1 = b.z_end;
+    if (g0.grade == 0 || steps < 1) {
+      sawn.volume_m3 += b.volume_m3;
+      continue;
+    }
     // A step cut off that holds no knot crossing and no wane removes nothing the grade sees:
     // the piece one step longer is graded the same (or better: fewer knots per metre) and holds
     // more wood, so such cuts are not tried. has[0][i]: the i-th step from z_begin (1-based)
     // holds something; has[1][j] likewise from z_end.
     std::vector<char> has[2];
-    if (g0.grade > 0) {
-      has[0].assign(steps + 1, 0);
-      has[1].assign(steps + 1, 0);
-      auto mark = [&](double z0, double z1) {
-        const int a0 = static_cast<int>(std::floor((z0 - b.z_begin) / step)) + 1;
-        const int a1 = static_cast<int>(std::floor((z1 - b.z_begin) / step)) + 1;
-        for (int a = std::max(a0, 1); a <= std::min(a1, steps); ++a) has[0][a] = 1;
-        const int e0 = static_cast<int>(std::floor((b.z_end - z1) / step)) + 1;
-        const int e1 = static_cast<int>(std::floor((b.z_end - z0) / step)) + 1;
-        for (int e = std::max(e0, 1); e <= std::min(e1, steps); ++e) has[1][e] = 1;
-      };
-      for (const KnotOnSide& k : b.knots) mark(k.z_mm, k.z_mm);
-      for (const BoardSlab& s : b.slabs)
-        if (s.missing_mm2 > 0 || s.wane[0] > 0 || s.wane[1] > 0 || s.wane[2] > 0 || s.wane[3] > 0)
-          mark(s.z0, s.z1);
-    }
+    has[0].assign(steps + 1, 0);
+    has[1].assign(steps + 1, 0);
+    auto mark = [&](double z0, double z1) {
+      const int a0 = static_cast<int>(std::floor((z0 - b.z_begin) / step)) + 1;
+      const int a1 = static_cast<int>(std::floor((z1 - b.z_begin) / step)) + 1;
+      for (int a = std::max(a0, 1); a <= std::min(a1, steps); ++a) has[0][a] = 1;
+      const int e0 = static_cast<int>(std::floor((b.z_end - z1) / step)) + 1;
+      const int e1 = static_cast<int>(std::floor((b.z_end - z0) / step)) + 1;
+      for (int e = std::max(e0, 1); e <= std::min(e1, steps); ++e) has[1][e] = 1;
+    };
+    for (const KnotOnSide& k : b.knots) mark(k.z_mm, k.z_mm);
+    for (const BoardSlab& s : b.slabs)
+      if (s.missing_mm2 > 0 || s.wane[0] > 0 || s.wane[1] > 0 || s.wane[2] > 0 || s.wane[3] > 0)
+        mark(s.z0, s.z1);
     // A knot too big for the grade above must go: the piece keeps it otherwise, and with it the
     // grade (the grades are nested, each allowing what the one above allows).
     int need_i = 0, need_j = 0;
@@ -151,18 +209,22 @@ void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable&
       need_i = static_cast<int>(std::floor((z - b.z_begin) / step)) + 1;
       need_j = static_cast<int>(std::floor((b.z_end - z) / step)) + 1;
     }
-    for (int i = 0; i <= steps && g0.grade > 0; ++i) {
+    const PieceWane pieces(b, step, steps);
+    std::array<SideWane, 4> wane;
+    for (int i = 0; i <= steps; ++i) {
       if (i > 0 && !has[0][i]) continue;
+      const double z0 = b.z_begin + i * step;
+      const int p0 = pieces.at(z0);
       for (int j = 0; i + j <= steps; ++j) {
         if (i + j == 0 || (j > 0 && !has[1][j])) continue;
         if (i < need_i && j < need_j) continue;
-        const double z0 = b.z_begin + i * step, z1 = b.z_end - j * step;
+        const double z1 = b.z_end - j * step;
         if (z1 - z0 < min_len - 1e-9) break;
         // Worth trying only if even the best grade could beat the best so far.
         if (top * b.volume_m3 * (z1 - z0) / len <= best) break;
-        const Board c = cut(b, z0, z1, false);
-        const BoardGrade g = grade_board(c, rules);
-        const double v = c.volume_m3 * prices.price(rules.grade_name(g.grade), c.thickness_mm, c.width_mm);
+        const double missing = pieces.piece(p0, pieces.at(z1), &wane);
+        const double volume = b.thickness_mm * b.width_mm * (z1 - z0) * 1e-9 - missing * 1e-9;
+        const double v = volume * price[piece_grade(b, z0, z1, wane, rules)];
         if (v > best + 1e-12) best = v, best_z0 = z0, best_z1 = z1;
       }
     }

@@ -19,6 +19,7 @@
 // Thread safety: plain values; the free functions are reentrant.
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <limits>
 #include <string>
@@ -93,6 +94,11 @@ struct BoardGrade {
 };
 
 BoardGrade grade_board(const Board& board, const GradingRules& rules);
+// grade_board(cut_board(board, z0, z1), rules).grade without building the piece: the knots of
+// `board` crossing within [z0, z1] and the piece's wane per side (`wane`, as cut_board() sums it
+// from the slabs). For cross-cutting to value (trim_to_value), which tries many pieces.
+int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
+                const GradingRules& rules);
 // e.g. "dead knot 34 mm on face+ at 1.20 m > 25 mm allowed in A4"; "none" for kNone.
 std::string describe(const GradeLimit& limit, const GradingRules& rules);
 
