@@ -15,7 +15,6 @@
 
 namespace sawyer::bench {
 
-
 // SplitMix64: one stream per condition, so a condition does not depend on the others drawn.
 struct Rng {
   std::uint64_t s;
@@ -31,7 +30,6 @@ struct Rng {
   bool chance(double p) { return uniform(0, 1) < p; }
   int integer(int a, int b) { return a + static_cast<int>(next() % (b - a + 1)); }
 };
-
 
 // The kept slices rendered up front by `threads` Renderers (PhantomSource renders on one), as
 // float HU, or quantised to the 256 levels of the windowed 8-bit export exactly as
@@ -66,7 +64,8 @@ class MemorySource final : public ct::SliceSource {
   std::string description() const override { return "phantom of " + p_.log().id; }
   const std::vector<std::string>& notes() const override { return notes_; }
   Status read(int i, ct::Slice& out) override {
-    if (i < 0 || i >= static_cast<int>(slices_.size())) return Error("phantom in memory", "slice index");
+    if (i < 0 || i >= static_cast<int>(slices_.size()))
+      return Error("phantom in memory", "slice index");
     out = slices_[static_cast<size_t>(i)];
     out.index = i;
     return Status::Ok();

@@ -30,8 +30,9 @@ double peak_rss_mb() {
 }
 
 int usage() {
-  std::cerr << "usage: ct_read_bench read <scan>\n"
-               "       ct_read_bench convert <scan> <out> <dicom|tiff|multitiff|png|vti|mha|nrrd>\n";
+  std::cerr
+      << "usage: ct_read_bench read <scan>\n"
+         "       ct_read_bench convert <scan> <out> <dicom|tiff|multitiff|png|vti|mha|nrrd>\n";
   return 2;
 }
 
@@ -53,8 +54,7 @@ int read_all(const std::string& path) {
     }
     checksum += s.hu[s.hu.size() / 2];
   }
-  const double sec =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double mb = static_cast<double>(g.slice_count()) * g.width * g.height * 2 / 1e6;
   std::printf("| %-22s | %6d | %4dx%-4d | %7.2f | %8.0f | %7.0f | %8.0f | %.0f |\n",
               ct::format_name(src.format()), g.slice_count(), g.width, g.height, sec,
@@ -64,14 +64,22 @@ int read_all(const std::string& path) {
 
 int convert(const std::string& in, const std::string& out, const std::string& fmt) {
   ct::WriteOptions w;
-  if (fmt == "dicom") w.format = ct::Format::kDicom;
-  else if (fmt == "tiff") w.format = ct::Format::kTiffStack;
-  else if (fmt == "multitiff") w.format = ct::Format::kMultiPageTiff;
-  else if (fmt == "png") w.format = ct::Format::kPngStack;
-  else if (fmt == "vti") w.format = ct::Format::kVti;
-  else if (fmt == "mha") w.format = ct::Format::kMetaImage;
-  else if (fmt == "nrrd") w.format = ct::Format::kNrrd;
-  else return usage();
+  if (fmt == "dicom")
+    w.format = ct::Format::kDicom;
+  else if (fmt == "tiff")
+    w.format = ct::Format::kTiffStack;
+  else if (fmt == "multitiff")
+    w.format = ct::Format::kMultiPageTiff;
+  else if (fmt == "png")
+    w.format = ct::Format::kPngStack;
+  else if (fmt == "vti")
+    w.format = ct::Format::kVti;
+  else if (fmt == "mha")
+    w.format = ct::Format::kMetaImage;
+  else if (fmt == "nrrd")
+    w.format = ct::Format::kNrrd;
+  else
+    return usage();
   if (w.format == ct::Format::kDicom) w.rescale_intercept = 0.0;
   auto opened = ct::open_ct(in);
   if (!opened) {

@@ -170,7 +170,7 @@ struct Pricing {
 // value at that physical position, the truth's surface over the decider's grid, and the
 // decider's own optimiser result.
 struct Valued {
-  sw::OptimiseResult decided;  // on the deciding model
+  sw::OptimiseResult decided;         // on the deciding model
   std::vector<double> truth_surface;  // the truth's expected values over the same positions
   double truth_at_chosen = 0;
 };
@@ -231,8 +231,9 @@ Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int t
   o.from_mm = model.stem.z_begin() + 0.5 * sp;
   o.to_mm = model.stem.z_end() - 0.5 * sp;
   o.threads = threads;
-  o.image_size = std::max(256, 8 * static_cast<int>(std::ceil(2 * (reach_mm(model, o.placement) + 40) /
-                                                              o.pixel_mm / 8)));
+  o.image_size = std::max(
+      256,
+      8 * static_cast<int>(std::ceil(2 * (reach_mm(model, o.placement) + 40) / o.pixel_mm / 8)));
   row.px = o.pixel_mm, row.dz = sp, row.dried = o.moisture == ct::Moisture::kDried;
   std::unique_ptr<ct::Phantom> ph;
   for (int attempt = 0; attempt < 4 && !ph; ++attempt) {
@@ -253,14 +254,16 @@ Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int t
   row.trusted = !scan.qa || scan.qa->trusted;
   LogModel truth = ph->truth_log();
   const ct::VolumeGeometry& g = ph->geometry();
-  place_in_scanner_frame(truth, {g.origin.x, g.origin.y}, scan.scanner_frame.value_or(ScannerFrame{}));
+  place_in_scanner_frame(truth, {g.origin.x, g.origin.y},
+                         scan.scanner_frame.value_or(ScannerFrame{}));
 
   // A 2ex pattern that both the scanned and the true log take (the widest of three).
   const sw::SawLog s_log(scan), t_log(truth);
   const double usable = std::min(s_log.usable_diameter_mm(), t_log.usable_diameter_mm());
   const std::optional<bench::TwoEx> two_ex = bench::widest_two_ex(usable, scan.id);
   if (!two_ex)
-    return row.note = "no 2ex pattern fits (usable diameter " + std::to_string(usable) + " mm)", row;
+    return row.note = "no 2ex pattern fits (usable diameter " + std::to_string(usable) + " mm)",
+           row;
   const sw::Pattern& p = two_ex->pattern;
 
   row.bow_scan = s_log.bow().height_mm, row.bow_true = t_log.bow().height_mm;
@@ -271,9 +274,9 @@ Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int t
   Result<Valued> v = value_decision(scan, truth, p, pr);
   Result<sw::OptimiseResult> own = optimise_position(t_log, p, pr.rules, pr.prices, pr.options);
   if (!v || !own) return row.note = (!v ? v.error() : own.error()).message(), row;
-  const double truth_best = std::max(own.value().best.smoothed,
-                                     *std::max_element(v.value().truth_surface.begin(),
-                                                       v.value().truth_surface.end()));
+  const double truth_best =
+      std::max(own.value().best.smoothed,
+               *std::max_element(v.value().truth_surface.begin(), v.value().truth_surface.end()));
   row.claimed = v.value().decided.gain_over_horns_down;
   row.recovery = v.value().truth_at_chosen / truth_best;
   row.realised = v.value().truth_at_chosen / own.value().horns_down.smoothed - 1;
@@ -309,8 +312,8 @@ Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int t
       if (gs.grade == gt.grade) continue;
       row.grade_changes += "  " + bs.name + ": scan " + pr.rules.grade_name(gs.grade) + " (" +
                            describe(gs.limit, pr.rules) + "), truth " +
-                           pr.rules.grade_name(gt.grade) + " (" +
-                           describe(gt.limit, pr.rules) + ")\n";
+                           pr.rules.grade_name(gt.grade) + " (" + describe(gt.limit, pr.rules) +
+                           ")\n";
     }
   row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   row.ok = true;
@@ -333,11 +336,16 @@ int main(int argc, char** argv) {
   std::vector<int> only;
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], val = argv[a + 1];
-    if (k == "--logs") n_logs = std::max(1, std::atoi(val.c_str()));
-    else if (k == "--seed") seed = std::strtoull(val.c_str(), nullptr, 10);
-    else if (k == "--threads") threads = std::max(1, std::atoi(val.c_str()));
-    else if (k == "--grading") grading = val;
-    else if (k == "--scan-draws") draws = std::max(0, std::atoi(val.c_str()));
+    if (k == "--logs")
+      n_logs = std::max(1, std::atoi(val.c_str()));
+    else if (k == "--seed")
+      seed = std::strtoull(val.c_str(), nullptr, 10);
+    else if (k == "--threads")
+      threads = std::max(1, std::atoi(val.c_str()));
+    else if (k == "--grading")
+      grading = val;
+    else if (k == "--scan-draws")
+      draws = std::max(0, std::atoi(val.c_str()));
     else if (k == "--only") {
       std::stringstream ss(val);
       for (std::string t; std::getline(ss, t, ',');) only.push_back(std::atoi(t.c_str()));
@@ -348,13 +356,15 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  const std::string grading_path = grading == "nordic" ? src + "/data/grading/nordic_appearance.json"
+  const std::string grading_path = grading == "nordic"
+                                       ? src + "/data/grading/nordic_appearance.json"
                                    : grading == "gost" ? src + "/data/grading/gost_8486_like.json"
                                                        : grading;
   Result<sw::GradingRules> rules = sw::read_grading_file(grading_path);
   Result<sw::PriceTable> prices = sw::read_price_file(src + "/data/prices/example_prices.json");
   if (!rules || !prices) {
-    std::fprintf(stderr, "decision: %s\n", (!rules ? rules.error() : prices.error()).message().c_str());
+    std::fprintf(stderr, "decision: %s\n",
+                 (!rules ? rules.error() : prices.error()).message().c_str());
     return 1;
   }
   Pricing pr{std::move(rules).value(), std::move(prices).value(), {}};
@@ -362,15 +372,17 @@ int main(int argc, char** argv) {
   pr.draws = draws;
 
   std::printf("# Decision quality: positions chosen on scanned logs, valued on the true logs\n\n");
-  std::printf("%d logs, seed %llu, grading %s, σ %.0f° / %.0f mm, rotation step %.0f°, offsets "
-              "±%.0f mm; expected values under the positioning error; decisions over %d draws of "
-              "the scan's uncertainty\n\n",
-              n_logs, static_cast<unsigned long long>(seed), pr.rules.name.c_str(),
-              pr.options.sigma_rot_deg, pr.options.sigma_offset_mm, pr.options.rot_step_deg,
-              pr.options.offset_x_max_mm, pr.draws);
-  std::printf("| # | log | px mm | dz mm | dried | QA | bow scan / true mm | horns Δ° | claimed | "
-              "realised | recovery | surface r | rec. true knots | rec. true stem |%s s |\n",
-              draws > 0 ? " claimed, draws | realised, draws | recovery, draws |" : "");
+  std::printf(
+      "%d logs, seed %llu, grading %s, σ %.0f° / %.0f mm, rotation step %.0f°, offsets "
+      "±%.0f mm; expected values under the positioning error; decisions over %d draws of "
+      "the scan's uncertainty\n\n",
+      n_logs, static_cast<unsigned long long>(seed), pr.rules.name.c_str(),
+      pr.options.sigma_rot_deg, pr.options.sigma_offset_mm, pr.options.rot_step_deg,
+      pr.options.offset_x_max_mm, pr.draws);
+  std::printf(
+      "| # | log | px mm | dz mm | dried | QA | bow scan / true mm | horns Δ° | claimed | "
+      "realised | recovery | surface r | rec. true knots | rec. true stem |%s s |\n",
+      draws > 0 ? " claimed, draws | realised, draws | recovery, draws |" : "");
   std::printf("|---:|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|%s---:|\n",
               draws > 0 ? "---:|---:|---:|" : "");
   std::vector<Row> rows;
@@ -392,20 +404,21 @@ int main(int argc, char** argv) {
                     100 * r.realised_draws, 100 * r.recovery_draws);
       with_draws = b;
     }
-    std::printf("| %d | %s | %.2f | %.1f | %s | %s | %.1f%s / %.1f%s | %.1f | %+.1f %% | %+.1f %% | "
-                "%.1f %% | %.2f | %.1f %% | %.1f %% |%s %.0f |\n",
-                r.id, r.log.c_str(), r.px, r.dz, r.dried ? "yes" : "no",
-                r.trusted ? "ok" : "FAILED", r.bow_scan, r.straight_scan ? " (s)" : "", r.bow_true,
-                r.straight_true ? " (s)" : "", r.horns_diff_deg, 100 * r.claimed,
-                100 * r.realised, 100 * r.recovery, r.corr, 100 * r.recovery_true_knots,
-                100 * r.recovery_true_stem, with_draws.c_str(), r.seconds);
+    std::printf(
+        "| %d | %s | %.2f | %.1f | %s | %s | %.1f%s / %.1f%s | %.1f | %+.1f %% | %+.1f %% | "
+        "%.1f %% | %.2f | %.1f %% | %.1f %% |%s %.0f |\n",
+        r.id, r.log.c_str(), r.px, r.dz, r.dried ? "yes" : "no", r.trusted ? "ok" : "FAILED",
+        r.bow_scan, r.straight_scan ? " (s)" : "", r.bow_true, r.straight_true ? " (s)" : "",
+        r.horns_diff_deg, 100 * r.claimed, 100 * r.realised, 100 * r.recovery, r.corr,
+        100 * r.recovery_true_knots, 100 * r.recovery_true_stem, with_draws.c_str(), r.seconds);
     std::fflush(stdout);
     rows.push_back(std::move(r));
   }
-  std::printf("\n(s): straight, bow under %.0f mm: horns-down is the scanner's orientation, a "
-              "convention. rec. true knots: the recovery with the scanned stem and the true knots; "
-              "rec. true stem: the true stem with the scanned knots.\n",
-              sw::kMinBowMm);
+  std::printf(
+      "\n(s): straight, bow under %.0f mm: horns-down is the scanner's orientation, a "
+      "convention. rec. true knots: the recovery with the scanned stem and the true knots; "
+      "rec. true stem: the true stem with the scanned knots.\n",
+      sw::kMinBowMm);
 
   std::vector<double> rec, gap;
   int horns_n = 0, horns_ok = 0, every95 = 0, ok = 0;
@@ -426,11 +439,15 @@ int main(int argc, char** argv) {
   std::printf("\n## Against issue 21's targets (%d logs valued)\n\n", ok);
   std::printf("| figure | target | measured |\n|---|---|---:|\n");
   std::printf("| value recovery, median | >= 98 %% | %.1f %% |\n", 100 * median(rec));
-  std::printf("| value recovery, worst log | >= 95 %% on every log | %.1f %% (%d of %d logs >= 95 %%) |\n",
-              rec.empty() ? NAN : 100 * *std::min_element(rec.begin(), rec.end()), every95, ok);
-  std::printf("| claimed - realised gain, mean abs | <= 2 points | %.1f points |\n", 100 * gap_mean);
-  std::printf("| claimed - realised gain, worst log | <= 5 points | %.1f points |\n", 100 * gap_max);
-  std::printf("| horns-down scanned vs true, bowed logs | within 5° | %d of %d |\n", horns_ok, horns_n);
+  std::printf(
+      "| value recovery, worst log | >= 95 %% on every log | %.1f %% (%d of %d logs >= 95 %%) |\n",
+      rec.empty() ? NAN : 100 * *std::min_element(rec.begin(), rec.end()), every95, ok);
+  std::printf("| claimed - realised gain, mean abs | <= 2 points | %.1f points |\n",
+              100 * gap_mean);
+  std::printf("| claimed - realised gain, worst log | <= 5 points | %.1f points |\n",
+              100 * gap_max);
+  std::printf("| horns-down scanned vs true, bowed logs | within 5° | %d of %d |\n", horns_ok,
+              horns_n);
   if (draws > 0) {
     std::vector<double> rd;
     double gd = 0, gd_max = 0;
@@ -443,11 +460,12 @@ int main(int argc, char** argv) {
       gd_max = std::max(gd_max, std::abs(r.claimed_draws - r.realised_draws));
     }
     if (!rd.empty()) {
-      std::printf("\nWith the scan's uncertainty (%d draws) in the decision: value recovery median "
-                  "%.1f %%, worst %.1f %% (%d of %zu logs >= 95 %%); claimed - realised gain mean "
-                  "abs %.1f points, worst %.1f\n",
-                  draws, 100 * median(rd), 100 * *std::min_element(rd.begin(), rd.end()), n95,
-                  rd.size(), 100 * gd / rd.size(), 100 * gd_max);
+      std::printf(
+          "\nWith the scan's uncertainty (%d draws) in the decision: value recovery median "
+          "%.1f %%, worst %.1f %% (%d of %zu logs >= 95 %%); claimed - realised gain mean "
+          "abs %.1f points, worst %.1f\n",
+          draws, 100 * median(rd), 100 * *std::min_element(rd.begin(), rd.end()), n95, rd.size(),
+          100 * gd / rd.size(), 100 * gd_max);
     }
   }
 

@@ -7,11 +7,11 @@
 // For each log (the three bundled ones and K freshly generated pine and spruce logs) and each
 // condition ("clean": 512 x 512, 0.8 mm, 5 mm slices, 20 HU noise, the scanner bed; "hard":
 // twice the noise; and only when asked for with --condition: "placed", tilted 3°, 15 mm off
-// centre, rolled 40°, lying on the bed, 5 % of the slices missing, 0.9 mm pixels; "clutter", placed with steel
-// support bars and a chain in some slices; "coarse", 10 mm slices of 1 mm pixels over the same
-// length) it renders N slices (5 mm apart) around F of the log's length in memory, runs the stem
-// pass (which keeps the log's voxels) and the knot pass, and matches the knots found to the
-// phantom's true knots (ct_pipeline/knots/include/sawyer/ct/knot_match.h): a pair has its
+// centre, rolled 40°, lying on the bed, 5 % of the slices missing, 0.9 mm pixels; "clutter", placed
+// with steel support bars and a chain in some slices; "coarse", 10 mm slices of 1 mm pixels over
+// the same length) it renders N slices (5 mm apart) around F of the log's length in memory, runs
+// the stem pass (which keeps the log's voxels) and the knot pass, and matches the knots found to
+// the phantom's true knots (ct_pipeline/knots/include/sawyer/ct/knot_match.h): a pair has its
 // azimuth within 15° and its height within 15 mm at r = min(50 mm, both knots' r_end), nearest
 // first. True knots count when they lie whole
 // inside the section (5 mm from its ends) and, for recall, are at least 10 mm thick; a found
@@ -32,10 +32,10 @@
 
 #include "sawyer/ct/knot_match.h"
 #include "sawyer/ct/knot_scan.h"
-#include "sawyer/ct/scan_log.h"
 #include "sawyer/ct/log_volume.h"
 #include "sawyer/ct/phantom.h"
 #include "sawyer/ct/phantom_source.h"
+#include "sawyer/ct/scan_log.h"
 #include "sawyer/ct/stem_scan.h"
 #include "sawyer/model/log_generator.h"
 #include "sawyer/model/log_json.h"
@@ -116,10 +116,13 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, std::u
   row.r_dead = median_of(m.r_dead_mm);
   row.r_end = median_of(m.r_end_mm);
   if (list_knots) {
-    for (const std::string& l : m.missed) std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
-    for (const std::string& l : m.spurious_list) std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
+    for (const std::string& l : m.missed)
+      std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
+    for (const std::string& l : m.spurious_list)
+      std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
     if (list_pairs)
-      for (const std::string& l : m.pairs) std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
+      for (const std::string& l : m.pairs)
+        std::printf("  %s %s: %s\n", log.id.c_str(), condition.c_str(), l.c_str());
   }
   return row;
 }
@@ -161,12 +164,13 @@ void time_whole_log(const LogModel& log) {
     bytes = vol.bytes();
     knots = static_cast<int>(s.knots.size());
   }
-  std::printf("\nWhole log %s, %d slices in memory, 2 threads, best of 3 (s):\n\n"
-              "| stem pass (keeps the voxels) | knot detection | knot fits | knot pass | "
-              "knots | voxels kept (MB) | CPU, stem + knots (s) |\n|---:|---:|---:|---:|---:|---:|---:|\n"
-              "| %.2f | %.2f | %.2f | %.2f | %d | %.0f | %.2f |\n",
-              log.id.c_str(), src.geometry().slice_count(), best_stem, best_detect, best_fit,
-              best_total, knots, bytes / 1e6, cpu);
+  std::printf(
+      "\nWhole log %s, %d slices in memory, 2 threads, best of 3 (s):\n\n"
+      "| stem pass (keeps the voxels) | knot detection | knot fits | knot pass | "
+      "knots | voxels kept (MB) | CPU, stem + knots (s) |\n|---:|---:|---:|---:|---:|---:|---:|\n"
+      "| %.2f | %.2f | %.2f | %.2f | %d | %.0f | %.2f |\n",
+      log.id.c_str(), src.geometry().slice_count(), best_stem, best_detect, best_fit, best_total,
+      knots, bytes / 1e6, cpu);
 }
 
 }  // namespace
@@ -178,25 +182,32 @@ int main(int argc, char** argv) {
   double at = 0.5;
   bool speed = true;
   for (int a = 1; a + 1 < argc; a += 2) {
-    if (!std::strcmp(argv[a], "--slices")) n = std::atoi(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--random")) random_logs = std::atoi(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--only")) only = argv[a + 1];
-    else if (!std::strcmp(argv[a], "--condition")) only_condition = argv[a + 1];
-    else if (!std::strcmp(argv[a], "--seed")) seed = std::strtoull(argv[a + 1], nullptr, 10);
-    else if (!std::strcmp(argv[a], "--at")) at = std::atof(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--speed")) speed = std::atoi(argv[a + 1]) != 0;
+    if (!std::strcmp(argv[a], "--slices"))
+      n = std::atoi(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--random"))
+      random_logs = std::atoi(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--only"))
+      only = argv[a + 1];
+    else if (!std::strcmp(argv[a], "--condition"))
+      only_condition = argv[a + 1];
+    else if (!std::strcmp(argv[a], "--seed"))
+      seed = std::strtoull(argv[a + 1], nullptr, 10);
+    else if (!std::strcmp(argv[a], "--at"))
+      at = std::atof(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--speed"))
+      speed = std::atoi(argv[a + 1]) != 0;
     else if (!std::strcmp(argv[a], "--list")) {
       list_knots = std::atoi(argv[a + 1]) != 0;
       list_pairs = std::atoi(argv[a + 1]) >= 2;
-    }
-    else {
+    } else {
       std::fprintf(stderr, "knot_bench: unknown option %s\n", argv[a]);
       return 2;
     }
   }
   if (!only_condition.empty() && only_condition != "clean" && only_condition != "hard" &&
       only_condition != "placed" && only_condition != "clutter" && only_condition != "coarse") {
-    std::fprintf(stderr, "knot_bench: unknown condition %s (clean, hard, placed, clutter, coarse)\n",
+    std::fprintf(stderr,
+                 "knot_bench: unknown condition %s (clean, hard, placed, clutter, coarse)\n",
                  only_condition.c_str());
     return 2;
   }
@@ -216,11 +227,13 @@ int main(int argc, char** argv) {
     auto r = generate_log(g);
     if (r) logs.push_back(std::move(r).value());
   }
-  std::printf("Knots on phantoms (512 x 512, 0.8 mm, %d slices at 5 mm around %.0f %% of each "
-              "log)\n\n| log | condition | true >= 10 mm | found of them | recall %% | found | "
-              "spurious | precision %% | azimuth err median deg | height err @50 median mm | "
-              "diameter RMSE mm | r_dead err median mm (n) | r_end err median mm |\n"
-              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n", n, 100 * at);
+  std::printf(
+      "Knots on phantoms (512 x 512, 0.8 mm, %d slices at 5 mm around %.0f %% of each "
+      "log)\n\n| log | condition | true >= 10 mm | found of them | recall %% | found | "
+      "spurious | precision %% | azimuth err median deg | height err @50 median mm | "
+      "diameter RMSE mm | r_dead err median mm (n) | r_end err median mm |\n"
+      "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+      n, 100 * at);
   int tb = 0, fb = 0, nf = 0, ns = 0;
   for (const LogModel& log : logs) {
     if (!only.empty() && log.id != only) continue;
@@ -230,16 +243,18 @@ int main(int argc, char** argv) {
         continue;
       auto row = run(log, cond, n, seed, at);
       if (!row) {
-        std::printf("| %s | %s | error: %s |\n", log.id.c_str(), cond, row.error().message().c_str());
+        std::printf("| %s | %s | error: %s |\n", log.id.c_str(), cond,
+                    row.error().message().c_str());
         continue;
       }
       const Row& r = row.value();
       tb += r.truth_big, fb += r.found_big, nf += r.found, ns += r.spurious;
-      std::printf("| %s | %s | %d | %d | %.1f | %d | %d | %.1f | %.2f | %.2f | %.2f | %.1f (%d) | %.1f |\n",
-                  r.log.c_str(), r.condition.c_str(), r.truth_big, r.found_big,
-                  r.truth_big ? 100.0 * r.found_big / r.truth_big : 100.0, r.found, r.spurious,
-                  r.found ? 100.0 * (r.found - r.spurious) / r.found : 100.0, r.az_deg,
-                  r.height_mm, r.diam_rmse, r.r_dead, r.dead_pairs, r.r_end);
+      std::printf(
+          "| %s | %s | %d | %d | %.1f | %d | %d | %.1f | %.2f | %.2f | %.2f | %.1f (%d) | %.1f |\n",
+          r.log.c_str(), r.condition.c_str(), r.truth_big, r.found_big,
+          r.truth_big ? 100.0 * r.found_big / r.truth_big : 100.0, r.found, r.spurious,
+          r.found ? 100.0 * (r.found - r.spurious) / r.found : 100.0, r.az_deg, r.height_mm,
+          r.diam_rmse, r.r_dead, r.dead_pairs, r.r_end);
       std::fflush(stdout);
     }
   }

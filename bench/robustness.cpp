@@ -29,6 +29,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench_util.h"
 #include "sawyer/core/vec.h"
 #include "sawyer/ct/knot_match.h"
 #include "sawyer/ct/knot_scan.h"
@@ -40,7 +41,6 @@
 #include "sawyer/ct/stem_scan.h"
 #include "sawyer/model/log_generator.h"
 #include "sawyer/model/log_json.h"
-#include "bench_util.h"
 
 using namespace sawyer;
 using namespace sawyer::ct;
@@ -172,9 +172,9 @@ struct Figures {
   std::optional<bool> flagged;  // the scan's own QA verdict failed (ct::assess_scan)
   std::string qa_warnings;      // its warnings, joined
   // The figures it rests on (ScanQaDetail), for --qa-csv.
-  double qa_pith_suspect = NAN, qa_pith_run_mm = NAN, qa_ring_share = NAN,
-         qa_outline_suspect = NAN, qa_knots_per_m = NAN, qa_expected_median = NAN,
-         qa_expected_p95 = NAN, qa_resolved = NAN, qa_weak_bark = NAN, qa_bark_step = NAN, qa_bark_share = NAN;
+  double qa_pith_suspect = NAN, qa_pith_run_mm = NAN, qa_ring_share = NAN, qa_outline_suspect = NAN,
+         qa_knots_per_m = NAN, qa_expected_median = NAN, qa_expected_p95 = NAN, qa_resolved = NAN,
+         qa_weak_bark = NAN, qa_bark_step = NAN, qa_bark_share = NAN;
   double seconds_render = 0, seconds_scan = 0;
   std::string knot_signal;  // the knot pass's noise, thresholds and ring rejections (stderr)
 };
@@ -318,8 +318,8 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
                    rec.pith_raw.found ? (rec.pith_raw.pith_mm - want).norm() : -1.0,
                    rec.pith_refined.found ? (rec.pith_refined.pith_mm - want).norm() : -1.0,
                    rec.whorl_found ? (rec.pith_whorl - want).norm() : -1.0,
-                   rec.whorl_used ? "*" : " ", rec.whorl_knots, rec.ring_signal,
-                   rec.ring_period_mm, rec.pith_expected_error_mm, pith_cue_name(rec.pith_cue));
+                   rec.whorl_used ? "*" : " ", rec.whorl_knots, rec.ring_signal, rec.ring_period_mm,
+                   rec.pith_expected_error_mm, pith_cue_name(rec.pith_cue));
     auto add = [&](std::vector<double> rad, std::vector<bool> ok, auto truth_at, double& sum2,
                    long& count) {
       recentre_contour(rec.pith, want, rad, ok);
@@ -351,8 +351,10 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
           int nb = 0;
           for (size_t k = b0; k < std::min(na, b0 + bin); ++k)
             if (ok[k]) sb += rad[k] - truth_at(kTwoPi * k / na), ++nb;
-          if (nb) std::fprintf(stderr, " %+.1f", sb / nb);
-          else std::fprintf(stderr, "  -");
+          if (nb)
+            std::fprintf(stderr, " %+.1f", sb / nb);
+          else
+            std::fprintf(stderr, "  -");
         }
         std::fprintf(stderr, "\n");
       }
@@ -387,7 +389,8 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
     for (const auto& co : ph->clutter())
       std::fprintf(stderr, "  clutter %s at (%.0f, %.0f, %.0f), z %.0f-%.0f mm\n", co.kind.c_str(),
                    co.centre.x, co.centre.y, co.centre.z, co.z_min, co.z_max);
-    for (const std::string& l : m.spurious_list) std::fprintf(stderr, "  spurious: %s\n", l.c_str());
+    for (const std::string& l : m.spurious_list)
+      std::fprintf(stderr, "  spurious: %s\n", l.c_str());
     for (const std::string& l : m.missed) std::fprintf(stderr, "  missed: %s\n", l.c_str());
   }
   f.recall = m.recall(), f.precision = m.precision();
@@ -747,7 +750,7 @@ void print_failures(const std::vector<Done>& done, const std::vector<LogModel>& 
     std::printf("- #%d fails %s.\n  %s.\n  %s.\n  QA: %s.\n", d.c.id, failed.c_str(),
                 params(d.c, logs_of[i], d.f).c_str(),
                 d.f.error.empty() ? figures(d.f).c_str() : "no figures",
-                !d.f.error.empty()          ? "refused the scan"
+                !d.f.error.empty()            ? "refused the scan"
                 : d.f.flagged.value_or(false) ? ("flagged: " + d.f.qa_warnings).c_str()
                                               : "NOT flagged");
   }
@@ -790,9 +793,11 @@ void write_qa_csv(const std::vector<Done>& done, const std::string& path) {
     std::fprintf(stderr, "robustness: cannot write %s\n", path.c_str());
     return;
   }
-  std::fprintf(out, "id,error,fails,fails_pith,fails_outline,fails_knots,flagged,pith_suspect,"
-                    "pith_run_mm,ring_share,outline_suspect,knots_per_m,pith_median,outer_rms,"
-                    "expected_median,expected_p95,resolved_share,pith_p95,fine,weak_bark,bark_step,bark_share\n");
+  std::fprintf(
+      out,
+      "id,error,fails,fails_pith,fails_outline,fails_knots,flagged,pith_suspect,"
+      "pith_run_mm,ring_share,outline_suspect,knots_per_m,pith_median,outer_rms,"
+      "expected_median,expected_p95,resolved_share,pith_p95,fine,weak_bark,bark_step,bark_share\n");
   for (const Done& d : done) {
     if (d.f.excluded) continue;
     std::string failed;
@@ -803,12 +808,11 @@ void write_qa_csv(const std::vector<Done>& done, const std::string& path) {
       (k <= 2 ? fp : (k <= 4 ? fo : fk)) = true;
     }
     std::fprintf(out, "%d,%d,%d,%d,%d,%d,%d,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%d,%g,%g,%g\n", d.c.id,
-                 !d.f.error.empty(),
-                 !failed.empty() || !d.f.error.empty(), fp, fo, fk, d.f.flagged.value_or(false),
-                 d.f.qa_pith_suspect, d.f.qa_pith_run_mm, d.f.qa_ring_share,
-                 d.f.qa_outline_suspect, d.f.qa_knots_per_m, d.f.pith_median, d.f.outer_rms,
-                 d.f.qa_expected_median, d.f.qa_expected_p95, d.f.qa_resolved, d.f.pith_p95,
-                 d.f.fine, d.f.qa_weak_bark, d.f.qa_bark_step, d.f.qa_bark_share);
+                 !d.f.error.empty(), !failed.empty() || !d.f.error.empty(), fp, fo, fk,
+                 d.f.flagged.value_or(false), d.f.qa_pith_suspect, d.f.qa_pith_run_mm,
+                 d.f.qa_ring_share, d.f.qa_outline_suspect, d.f.qa_knots_per_m, d.f.pith_median,
+                 d.f.outer_rms, d.f.qa_expected_median, d.f.qa_expected_p95, d.f.qa_resolved,
+                 d.f.pith_p95, d.f.fine, d.f.qa_weak_bark, d.f.qa_bark_step, d.f.qa_bark_share);
   }
   std::fclose(out);
 }
@@ -886,8 +890,7 @@ int main(int argc, char** argv) {
       "# Robustness sweep: %d conditions, seed %llu, preset %s, logs %s, %d slices each, "
       "%d threads%s%s\n",
       n_conditions, static_cast<unsigned long long>(seed), preset.c_str(), logs_from.c_str(),
-      slices, threads,
-      baseline ? "; baseline: each log and section under the default phantom" : "",
+      slices, threads, baseline ? "; baseline: each log and section under the default phantom" : "",
       true_stem ? "; knot pass on the true stem" : "");
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Done> done;
@@ -919,8 +922,7 @@ int main(int argc, char** argv) {
     Figures f = measure(c, log, slices, threads, true_stem);
     std::fprintf(stderr, "robustness: %d/%d %s %s: %s\n", i + 1, n_conditions,
                  preset_name(c.preset), log.id.c_str(),
-                 f.error.empty() ? (figures(f) + "; " + f.knot_signal).c_str()
-                                 : f.error.c_str());
+                 f.error.empty() ? (figures(f) + "; " + f.knot_signal).c_str() : f.error.c_str());
     done.push_back({c, log.id, std::move(f)});
     logs_of.push_back(std::move(log));
   }

@@ -66,10 +66,14 @@ int main(int argc, char** argv) {
   int repeat = 3;
   std::string cache = "bench_ct", logs = "gran1,pine21,spruce24", threads;
   for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--repeat")) repeat = std::max(1, std::atoi(argv[i + 1]));
-    else if (!std::strcmp(argv[i], "--cache")) cache = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--logs")) logs = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--threads")) threads = argv[i + 1];
+    if (!std::strcmp(argv[i], "--repeat"))
+      repeat = std::max(1, std::atoi(argv[i + 1]));
+    else if (!std::strcmp(argv[i], "--cache"))
+      cache = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--logs"))
+      logs = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--threads"))
+      threads = argv[i + 1];
   }
   fs::create_directories(cache);
   std::vector<Case> cases;
@@ -81,9 +85,9 @@ int main(int argc, char** argv) {
       const bool pine = n[0] == 'p';
       const std::string seed = n.substr(pine ? 4 : 6);
       const std::string model = cache + "/" + n + ".json";
-      cases.push_back({n, sawyer + " generate --species " + (pine ? "pine" : "spruce") +
-                              " --seed " + seed + " --length-m 4 --top-diameter-mm 200 -o " + model +
-                              " >/dev/null",
+      cases.push_back({n,
+                       sawyer + " generate --species " + (pine ? "pine" : "spruce") + " --seed " +
+                           seed + " --length-m 4 --top-diameter-mm 200 -o " + model + " >/dev/null",
                        model});
     } else {
       std::fprintf(stderr, "run_bench: unknown log '%s' (gran1, pineN, spruceN)\n", n.c_str());
@@ -91,9 +95,9 @@ int main(int argc, char** argv) {
     }
   }
 
-  std::printf("%-14s %7s %6s | %6s %6s %6s %8s %6s | %7s %7s %8s | %s\n", "log", "slices",
-              "knots", "scan", "saw", "write", "checksum", "report", "wall", "median",
-              "peak MiB", "runs (s)");
+  std::printf("%-14s %7s %6s | %6s %6s %6s %8s %6s | %7s %7s %8s | %s\n", "log", "slices", "knots",
+              "scan", "saw", "write", "checksum", "report", "wall", "median", "peak MiB",
+              "runs (s)");
   for (const Case& c : cases) {
     if (!c.model_cmd.empty() && !fs::exists(c.model) && sh(c.model_cmd) != 0) return 1;
     const std::string ct = cache + "/" + c.name + "_ct";
@@ -114,8 +118,7 @@ int main(int argc, char** argv) {
       double p = 0;
       if (sh_peak(cmd + " >/dev/null", &p) != 0) return 1;
       peak = std::max(peak, p);
-      wall.push_back(
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      wall.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       std::ifstream f(out + "/run.json");
       const nlohmann::json j = nlohmann::json::parse(f, nullptr, false);
       if (j.is_discarded()) {
@@ -136,10 +139,12 @@ int main(int argc, char** argv) {
     }
     std::printf("%-14s %7d %6d | %6.2f %6.2f %6.2f %8.2f %6.2f | %7.2f %7.2f %8.0f | %s\n",
                 c.name.c_str(), slices, knots, med("scan"), med("saw"), med("write"),
-                med("checksum"), med("report"),
-                *std::min_element(wall.begin(), wall.end()), median(wall), peak, runs.c_str());
+                med("checksum"), med("report"), *std::min_element(wall.begin(), wall.end()),
+                median(wall), peak, runs.c_str());
   }
-  std::printf("stages: medians of %d runs (run.json); wall: the whole command, best and median; "
-              "target ≤ 5 s\n", repeat);
+  std::printf(
+      "stages: medians of %d runs (run.json); wall: the whole command, best and median; "
+      "target ≤ 5 s\n",
+      repeat);
   return 0;
 }

@@ -73,10 +73,12 @@ int dump(const LogModel& gran1, const char* out_path) {
         std::fprintf(f, "pos %s %s %.17g %.17g %.17g boards %zu dropped %zu value %.17g\n",
                      lm.id.c_str(), pname, pos.rotation_deg, pos.offset_x_mm, pos.offset_y_mm,
                      r.boards.size(), r.dropped.size(), v.value);
-        for (const DroppedBoard& d : r.dropped) std::fprintf(f, " dropped %d %s\n", d.spec, d.reason.c_str());
+        for (const DroppedBoard& d : r.dropped)
+          std::fprintf(f, " dropped %d %s\n", d.spec, d.reason.c_str());
         for (size_t bi = 0; bi < r.boards.size(); ++bi) {
           const Board& b = r.boards[bi];
-          std::fprintf(f, " board %d %gx%g z %.17g %.17g vol %.17g box %.17g grade %d value %.17g\n",
+          std::fprintf(f,
+                       " board %d %gx%g z %.17g %.17g vol %.17g box %.17g grade %d value %.17g\n",
                        b.spec, b.thickness_mm, b.width_mm, b.z_begin, b.z_end, b.volume_m3,
                        b.box_volume_m3, v.boards[bi].grade.grade, v.boards[bi].value);
           for (int s = 0; s < 4; ++s)

@@ -1,6 +1,7 @@
 // stem_bench: accuracy and speed of the stem pass (issue 4) on phantoms with ground truth.
 //
-//   stem_bench [--slices N] [--spacing MM] [--pixel MM] [--random K] [--speed-slices M] [--only LOG_ID]
+//   stem_bench [--slices N] [--spacing MM] [--pixel MM] [--random K] [--speed-slices M] [--only
+//   LOG_ID]
 //              [--condition clean|hard|noise2|touch] [--seed S] [--at F] [--verbose 1]
 //
 // For each log (the three bundled ones and K freshly generated ones) and each condition
@@ -96,11 +97,17 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
     const double e = (rec.pith - want).norm();
     err.push_back(e);
     if (verbose)
-      std::printf("  truth %.2f %.2f ", want.x, want.y), std::printf("  %s %s slice %2zu z %.0f: raw %s refined %s smoothed %.2f mm%s\n", log.id.c_str(),
-                  condition.c_str(), j, z,
-                  rec.pith_raw.found ? std::to_string((rec.pith_raw.pith_mm - want).norm()).substr(0, 5).c_str() : "-",
-                  rec.pith_refined.found ? std::to_string((rec.pith_refined.pith_mm - want).norm()).substr(0, 5).c_str() : "-",
-                  e, rec.pith_outlier ? " (outlier)" : "");
+      std::printf("  truth %.2f %.2f ", want.x, want.y),
+          std::printf(
+              "  %s %s slice %2zu z %.0f: raw %s refined %s smoothed %.2f mm%s\n", log.id.c_str(),
+              condition.c_str(), j, z,
+              rec.pith_raw.found
+                  ? std::to_string((rec.pith_raw.pith_mm - want).norm()).substr(0, 5).c_str()
+                  : "-",
+              rec.pith_refined.found
+                  ? std::to_string((rec.pith_refined.pith_mm - want).norm()).substr(0, 5).c_str()
+                  : "-",
+              e, rec.pith_outlier ? " (outlier)" : "");
     if (e > row.pith_worst) {
       row.pith_worst = e;
       row.worst_slice = static_cast<int>(j);
@@ -117,11 +124,13 @@ Result<Row> run(const LogModel& log, const std::string& condition, int n, double
         ++count;
       }
     };
-    add_squares(rec.contour.radius, rec.contour.valid,
-                [&](double w) { return truth.stem.radius_at(w, z); }, r2, rn);
+    add_squares(
+        rec.contour.radius, rec.contour.valid, [&](double w) { return truth.stem.radius_at(w, z); },
+        r2, rn);
     if (rec.heartwood.present && !truth.stem.heartwood.empty())
-      add_squares(rec.heartwood.radius, rec.heartwood.valid,
-                  [&](double w) { return truth.stem.heartwood_at(w, z); }, h2, hn);
+      add_squares(
+          rec.heartwood.radius, rec.heartwood.valid,
+          [&](double w) { return truth.stem.heartwood_at(w, z); }, h2, hn);
   }
   row.pith_median = percentile(err, 0.5);
   row.pith_p95 = percentile(err, 0.95);
@@ -169,17 +178,19 @@ Speed time_stem_pass(const LogModel& log, int n, double spacing) {
       auto scan = scan_stem(src, so);
       const double cpu = cpu_seconds() - c0;
       if (!scan) return sp;
-      if (threads == 1) sp.cpu_ms = rep == 0 ? 1000.0 * cpu / sp.slices
-                                             : std::min(sp.cpu_ms, 1000.0 * cpu / sp.slices);
+      if (threads == 1)
+        sp.cpu_ms =
+            rep == 0 ? 1000.0 * cpu / sp.slices : std::min(sp.cpu_ms, 1000.0 * cpu / sp.slices);
       best = std::min(best, scan.value().seconds);
       if (verbose)
-        std::printf("  %d thread(s): %.3f s = tracking + contours %.3f s, refinement %.3f s; "
-                    "CPU reading + first track %.3f s, contours %.3f s; %d whole-slice "
-                    "searches, %d refinements in %d passes\n",
-                    threads, scan.value().seconds, scan.value().seconds_tracking,
-                    scan.value().seconds_refining, scan.value().cpu_reading_tracking,
-                    scan.value().cpu_contours, scan.value().pith_full_searches,
-                    scan.value().pith_refinements, scan.value().pith_refine_passes);
+        std::printf(
+            "  %d thread(s): %.3f s = tracking + contours %.3f s, refinement %.3f s; "
+            "CPU reading + first track %.3f s, contours %.3f s; %d whole-slice "
+            "searches, %d refinements in %d passes\n",
+            threads, scan.value().seconds, scan.value().seconds_tracking,
+            scan.value().seconds_refining, scan.value().cpu_reading_tracking,
+            scan.value().cpu_contours, scan.value().pith_full_searches,
+            scan.value().pith_refinements, scan.value().pith_refine_passes);
     }
     (threads == 1 ? sp.ms_one : sp.ms_two) = 1000.0 * best / sp.slices;
   }
@@ -197,16 +208,26 @@ int main(int argc, char** argv) {
   double at = 0.5;
   std::string only_condition;
   for (int a = 1; a + 1 < argc; a += 2) {
-    if (!std::strcmp(argv[a], "--slices")) n = std::atoi(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--spacing")) spacing = std::atof(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--pixel")) pixel_mm = std::atof(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--random")) random_logs = std::atoi(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--verbose")) verbose = std::atoi(argv[a + 1]) != 0;
-    else if (!std::strcmp(argv[a], "--only")) only = argv[a + 1];
-    else if (!std::strcmp(argv[a], "--speed-slices")) speed_slices = std::atoi(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--seed")) seed = std::strtoull(argv[a + 1], nullptr, 10);
-    else if (!std::strcmp(argv[a], "--at")) at = std::atof(argv[a + 1]);
-    else if (!std::strcmp(argv[a], "--condition")) only_condition = argv[a + 1];
+    if (!std::strcmp(argv[a], "--slices"))
+      n = std::atoi(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--spacing"))
+      spacing = std::atof(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--pixel"))
+      pixel_mm = std::atof(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--random"))
+      random_logs = std::atoi(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--verbose"))
+      verbose = std::atoi(argv[a + 1]) != 0;
+    else if (!std::strcmp(argv[a], "--only"))
+      only = argv[a + 1];
+    else if (!std::strcmp(argv[a], "--speed-slices"))
+      speed_slices = std::atoi(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--seed"))
+      seed = std::strtoull(argv[a + 1], nullptr, 10);
+    else if (!std::strcmp(argv[a], "--at"))
+      at = std::atof(argv[a + 1]);
+    else if (!std::strcmp(argv[a], "--condition"))
+      only_condition = argv[a + 1];
   }
   std::vector<LogModel> logs;
   for (const char* name : {"gran1_spruce", "pine_8", "spruce_77"}) {
@@ -224,10 +245,11 @@ int main(int argc, char** argv) {
     auto r = generate_log(g);
     if (r) logs.push_back(std::move(r).value());
   }
-  std::printf("Stem accuracy on phantoms (512 x 512, %.2f mm, %d slices at %.1f mm)\n\n", pixel_mm, n,
-              spacing);
-  std::printf("| log | condition | slices | pith median mm | pith p95 mm | worst mm (slice) | "
-              "radius RMS mm | heartwood RMS mm | slices/s |\n");
+  std::printf("Stem accuracy on phantoms (512 x 512, %.2f mm, %d slices at %.1f mm)\n\n", pixel_mm,
+              n, spacing);
+  std::printf(
+      "| log | condition | slices | pith median mm | pith p95 mm | worst mm (slice) | "
+      "radius RMS mm | heartwood RMS mm | slices/s |\n");
   std::printf("|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const LogModel& log : logs) {
     if (!only.empty() && log.id != only) continue;
@@ -246,23 +268,24 @@ int main(int argc, char** argv) {
       std::printf("| %s | %s | %d | %.2f | %.2f | %.2f (%d) | %.2f | %s | %.0f |\n", r.log.c_str(),
                   r.condition.c_str(), r.slices, r.pith_median, r.pith_p95, r.pith_worst,
                   r.worst_slice, r.radius_rms,
-                  r.heart ? std::to_string(r.heart_rms).substr(0, 5).c_str() : "-",
-                  r.slices_per_s);
+                  r.heart ? std::to_string(r.heart_rms).substr(0, 5).c_str() : "-", r.slices_per_s);
       std::fflush(stdout);
     }
   }
   if (speed_slices <= 0) return 0;
-  std::printf("\nWhole stem pass on %d slices of each log's middle (in memory, reading excluded), "
-              "best of 5. CPU ms/slice: processor time of all threads (the work one core would "
-              "do); wall ms/slice with 1 worker thread (the reading thread runs beside it) and "
-              "with 2\n\n| log | slices | CPU ms/slice | wall ms/slice, 1 worker | "
-              "wall ms/slice, 2 workers | 800 slices, 2 workers (s) |\n"
-              "|---|---:|---:|---:|---:|---:|\n", speed_slices);
+  std::printf(
+      "\nWhole stem pass on %d slices of each log's middle (in memory, reading excluded), "
+      "best of 5. CPU ms/slice: processor time of all threads (the work one core would "
+      "do); wall ms/slice with 1 worker thread (the reading thread runs beside it) and "
+      "with 2\n\n| log | slices | CPU ms/slice | wall ms/slice, 1 worker | "
+      "wall ms/slice, 2 workers | 800 slices, 2 workers (s) |\n"
+      "|---|---:|---:|---:|---:|---:|\n",
+      speed_slices);
   for (const LogModel& log : logs) {
     if (!only.empty() && log.id != only) continue;
     const Speed sp = time_stem_pass(log, speed_slices, spacing);
-    std::printf("| %s | %d | %.2f | %.2f | %.2f | %.2f |\n", log.id.c_str(), sp.slices,
-                sp.cpu_ms, sp.ms_one, sp.ms_two, 0.8 * sp.ms_two);
+    std::printf("| %s | %d | %.2f | %.2f | %.2f | %.2f |\n", log.id.c_str(), sp.slices, sp.cpu_ms,
+                sp.ms_one, sp.ms_two, 0.8 * sp.ms_two);
     std::fflush(stdout);
   }
   return 0;

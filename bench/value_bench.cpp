@@ -117,7 +117,8 @@ int main(int argc, char** argv) {
   for (const LogModel& log : logs) {
     if (speed_only) break;
     const SawLog saw_log(log);
-    const std::optional<bench::TwoEx> p = bench::widest_two_ex(saw_log.usable_diameter_mm(), log.id);
+    const std::optional<bench::TwoEx> p =
+        bench::widest_two_ex(saw_log.usable_diameter_mm(), log.id);
     if (!p) {
       std::printf("| %s | %zu | (usable diameter %.0f mm: no 2ex fits) | | | | | |\n",
                   log.id.c_str(), log.knots.size(), saw_log.usable_diameter_mm());
@@ -132,11 +133,9 @@ int main(int argc, char** argv) {
     const OptimiseResult& v = r.value();
     std::printf(
         "| %s | %zu | %s | %.2f (%.2f) | %.2f (%.2f) | %.2f (%.2f) | %.0f° / %+.0f | %+.1f |\n",
-        log.id.c_str(), log.knots.size(),
-        p->label,
-        v.horns_down.smoothed, v.horns_down.value, v.horns_up.smoothed, v.horns_up.value,
-        v.best.smoothed, v.best.value, v.best.pos.rotation_deg, v.best.pos.offset_x_mm,
-        100 * v.gain_over_horns_down);
+        log.id.c_str(), log.knots.size(), p->label, v.horns_down.smoothed, v.horns_down.value,
+        v.horns_up.smoothed, v.horns_up.value, v.best.smoothed, v.best.value,
+        v.best.pos.rotation_deg, v.best.pos.offset_x_mm, 100 * v.gain_over_horns_down);
     gain_sum += v.gain_over_horns_down;
     ++n;
   }
@@ -149,9 +148,10 @@ int main(int argc, char** argv) {
   speed.rot_range_deg = 360;
   speed.rot_step_deg = speed_rot_step;
   const SawLog gran1(logs[0]);
-  std::printf("\nspeed: %s, %.0f × 11 grid (%g° over 360°, offsets ±10 mm step 2), graded and "
-              "valued, best of %d\n\n",
-              logs[0].id.c_str(), 360 / speed_rot_step, speed_rot_step, repeats);
+  std::printf(
+      "\nspeed: %s, %.0f × 11 grid (%g° over 360°, offsets ±10 mm step 2), graded and "
+      "valued, best of %d\n\n",
+      logs[0].id.c_str(), 360 / speed_rot_step, speed_rot_step, repeats);
   std::printf("| pattern | threads | positions | seconds | positions/s |\n");
   std::printf("|---|---:|---:|---:|---:|\n");
   for (const char* name : {"2ex", "4ex", "tt"}) {

@@ -19,12 +19,16 @@ function(sawyer_add_library name)
   set_target_properties(sawyer_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
 endfunction()
 
-# sawyer_add_test(<name> [LIBS ...]): tests/<name>_test.cpp, each TEST discovered by CTest on its own.
+# sawyer_add_test(<name> [CLI] [LIBS ...]): tests/<name>_test.cpp, each TEST discovered by CTest on
+# its own. CLI: the test runs the `sawyer` command line, so it waits for it to be built; the other
+# test programs build from the libraries they link alone.
 function(sawyer_add_test name)
-  cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "CLI" "" "LIBS" ${ARGN})
   add_executable(${name}_test ${name}_test.cpp)
   target_link_libraries(${name}_test PRIVATE sawyer::test_util ${ARG_LIBS} GTest::gmock GTest::gtest GTest::gtest_main sawyer::warnings)
-  add_dependencies(${name}_test sawyer)  # tests may run the command line
+  if(ARG_CLI)
+    add_dependencies(${name}_test sawyer)  # the test runs the command line
+  endif()
   gtest_discover_tests(${name}_test
     WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}
     DISCOVERY_TIMEOUT 60)

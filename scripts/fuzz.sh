@@ -19,10 +19,10 @@ cmake --build build-fuzz --target fuzz_dicom fuzz_image_stack fuzz_vtk_volume fu
 for t in fuzz_dicom fuzz_image_stack fuzz_vtk_volume fuzz_sawing_files fuzz_log_json fuzz_sidecar; do
   mkdir -p "build-fuzz/corpus/$t" "build-fuzz/crashes/$t"
   dirs=("build-fuzz/corpus/$t")
-  [ -d "tests/corpus/fuzz/$t" ] && dirs+=("tests/corpus/fuzz/$t")
+  [ -d "tests/fuzz/corpus/$t" ] && dirs+=("tests/fuzz/corpus/$t")
   echo "== $t: ${SECONDS_PER_TARGET}s"
-  LSAN_OPTIONS=suppressions=$PWD/ct_pipeline/fuzz/lsan.supp \
-  "build-fuzz/ct_pipeline/fuzz/$t" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 \
+  LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp \
+  "build-fuzz/tests/fuzz/$t" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 \
     -artifact_prefix="build-fuzz/crashes/$t/" "${dirs[@]}" \
     2>&1 | grep -E "^#[0-9]+[[:space:]]+(DONE|INITED)|ERROR|SUMMARY|Test unit written|Done [0-9]+ runs" || true
 done

@@ -10,7 +10,7 @@ PACKAGES=(
   libopencv-dev libvtk9-dev libopenimageio-dev openimageio-tools libdeflate-dev
   libglfw3-dev libceres-dev libgdcm-dev libgdcm-tools libsqlite3-dev libxxhash-dev libcairo2-dev libimgui-dev
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
-  xvfb xauth poppler-utils chromium fonts-dejavu-core sqlite3
+  xvfb xauth poppler-utils chromium fonts-dejavu-core sqlite3 clang-format git
 )
 
 missing=()

@@ -188,7 +188,7 @@ TEST(Shard, ParseAndCoverEveryRowOnce) {
     Result<Shard> s = parse_shard(bad);
     EXPECT_FALSE(s.ok()) << bad;
     if (!s.ok()) {
-      EXPECT_NE(s.error().message().find("--shard"), std::string::npos);
+      EXPECT_NE(s.error().message().find("shard_spec"), std::string::npos);
     }
   }
   Result<Shard> one = parse_shard("0/1");
@@ -319,7 +319,8 @@ class BatchEndToEnd : public ::testing::Test {
           "gran1_30cm_coarse_s" + std::to_string(seed),
           test::quoted(test::sample_log("gran1_spruce") / "log.json") +
               " --from-mm 1000 --to-mm 1300 --size 256 --pixel-mm 1.6 --spacing-mm 10"
-              " --threads 1 --seed " + std::to_string(seed));
+              " --threads 1 --seed " +
+              std::to_string(seed));
       ASSERT_FALSE(scans[seed - 1].empty());
       // Named as the batch sees it; the register keys on the resolved path.
       fs::create_directories(dir_->path() / "scans");
@@ -392,8 +393,8 @@ TEST_F(BatchEndToEnd, BadLogIsReportedGoodLogsAreDoneAndRegistered) {
   std::map<std::string, std::string> st;
   std::string output;
   EXPECT_EQ(batch("--jobs 2", out, db, &st, &output), 2) << output;
-  EXPECT_EQ(done_or_failed(st),
-            (std::map<std::string, std::string>{{"A", "done"}, {"B", "failed"}, {"log_s2", "done"}}))
+  EXPECT_EQ(done_or_failed(st), (std::map<std::string, std::string>{
+                                    {"A", "done"}, {"B", "failed"}, {"log_s2", "done"}}))
       << output;
   // The failed log's line names the bad file; the progress has one line per log.
   EXPECT_NE(read(out / "batch_0.csv").find("0001.dcm"), std::string::npos);
@@ -452,7 +453,8 @@ TEST_F(BatchEndToEnd, TwoShardsCoverEveryRowOnce) {
   // Rows 0 and 2 (A, log_s2) are shard 0's, row 1 (B, the broken one) shard 1's.
   EXPECT_EQ(rc0, 0) << o0;
   EXPECT_EQ(rc1, 2) << o1;
-  EXPECT_EQ(done_or_failed(st0), (std::map<std::string, std::string>{{"A", "done"}, {"log_s2", "done"}}));
+  EXPECT_EQ(done_or_failed(st0),
+            (std::map<std::string, std::string>{{"A", "done"}, {"log_s2", "done"}}));
   EXPECT_EQ(st1, (std::map<std::string, std::string>{{"B", "failed"}}));
   EXPECT_TRUE(fs::exists(out / "s0" / "batch_0.csv"));
   EXPECT_TRUE(fs::exists(out / "s1" / "batch_1.csv"));

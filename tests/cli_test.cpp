@@ -7,6 +7,7 @@
 #include <string>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/option_names.h"
 #include "sawyer/model/gran1_import.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
@@ -37,8 +38,7 @@ TEST(Cli, BundledSpruceLogJsonMatchesAFreshImport) {
   // stay what the importer makes of them.
   Result<LogModel> fresh = import_gran1(test::gran1_source_dir());
   ASSERT_TRUE(fresh) << fresh.error().message();
-  Result<std::string> committed =
-      read_text_file(test::sample_log("gran1_spruce") / "log.json");
+  Result<std::string> committed = read_text_file(test::sample_log("gran1_spruce") / "log.json");
   ASSERT_TRUE(committed) << committed.error().message();
   EXPECT_TRUE(log_to_json(fresh.value()) == committed.value())
       << "regenerate with: sawyer convert sample_logs/gran1_spruce/source -o "
@@ -122,7 +122,8 @@ TEST(Cli, EverySubcommandHasHelp) {
     const size_t end = rest.find('\n', at + 1);
     const std::string line = rest.substr(at + 1, end - at - 1);
     const size_t first = line.find_first_not_of(' ');
-    if (first != std::string::npos && first > 0) subs.push_back(line.substr(first, line.find(' ', first) - first));
+    if (first != std::string::npos && first > 0)
+      subs.push_back(line.substr(first, line.find(' ', first) - first));
     at = end;
   }
   EXPECT_GE(subs.size(), 3u) << out;
@@ -141,3 +142,19 @@ TEST(Cli, NoSubcommandIsAnError) {
 
 }  // namespace
 }  // namespace sawyer
+
+// Libraries name their own options; the command line puts its flags in (option_names.h): whole
+// words only, so an option inside a longer identifier or a plain word stays as it is.
+TEST(OptionNames, AFrontEndPutsItsFlagsInPlaceOfTheLibrarysOptionNames) {
+  static constexpr sawyer::OptionName kFlags[] = {{"rot_step_deg", "--rot-step"},
+                                                  {"SawNames::position", "--position"}};
+  EXPECT_EQ(sawyer::with_option_names("rotation step (rot_step_deg): 0 is outside", kFlags),
+            "rotation step (--rot-step): 0 is outside");
+  EXPECT_EQ(sawyer::with_option_names("SawNames::position: bad; the best position", kFlags),
+            "--position: bad; the best position");
+  EXPECT_EQ(sawyer::with_option_names("rot_step_deg2 my_rot_step_deg X::rot_step_deg rot_step_deg",
+                                      kFlags),
+            "rot_step_deg2 my_rot_step_deg X::rot_step_deg --rot-step");
+  EXPECT_EQ(sawyer::with_option_names(sawyer::Error("rot_step_deg", "too small"), kFlags).message(),
+            "--rot-step: too small");
+}

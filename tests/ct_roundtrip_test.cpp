@@ -90,9 +90,8 @@ TEST_P(RoundTrip, GeometryAndValuesSurvive) {
   // (air noise below the intercept of an unsigned stack).
   // DICOM stores signed 16-bit: nothing clips. The other writers store unsigned from the
   // intercept up.
-  const float floor_hu = GetParam().format == Format::kDicom
-                             ? -1e30f
-                             : static_cast<float>(GetParam().intercept);
+  const float floor_hu =
+      GetParam().format == Format::kDicom ? -1e30f : static_cast<float>(GetParam().intercept);
   Slice s;
   double worst = 0;
   long clipped = 0;
@@ -117,15 +116,16 @@ TEST_P(RoundTrip, GeometryAndValuesSurvive) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    EveryFormat, RoundTrip,
-    ::testing::Values(Case{Format::kDicom, "dicom", -1024.0}, Case{Format::kDicom, "dicom0", 0.0},
-                      Case{Format::kTiffStack, "tiff", -1024.0},
-                      Case{Format::kMultiPageTiff, "multitiff", -1024.0},
-                      Case{Format::kPngStack, "png", -1024.0}, Case{Format::kVti, "vti", -1024.0},
-                      Case{Format::kMetaImage, "mha", -1024.0},
-                      Case{Format::kNrrd, "nrrd", -1024.0}),
-    [](const auto& param_info) { return std::string(param_info.param.name); });
+INSTANTIATE_TEST_SUITE_P(EveryFormat, RoundTrip,
+                         ::testing::Values(Case{Format::kDicom, "dicom", -1024.0},
+                                           Case{Format::kDicom, "dicom0", 0.0},
+                                           Case{Format::kTiffStack, "tiff", -1024.0},
+                                           Case{Format::kMultiPageTiff, "multitiff", -1024.0},
+                                           Case{Format::kPngStack, "png", -1024.0},
+                                           Case{Format::kVti, "vti", -1024.0},
+                                           Case{Format::kMetaImage, "mha", -1024.0},
+                                           Case{Format::kNrrd, "nrrd", -1024.0}),
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
 
 TEST(PhantomCli, WritesASeriesThatInfoDescribes) {
   test::TempDir dir;

@@ -222,7 +222,8 @@ TEST(UniformZ, AbsurdGridIsRefused) {
   z.push_back(1e6);  // one slice a kilometre away
   auto r = make_uniform_z(std::make_unique<FakeSource>(z), {});
   ASSERT_FALSE(r);
-  EXPECT_THAT(r.error().message(), HasSubstr("resampling 11 slices would need 2000001 output slices"));
+  EXPECT_THAT(r.error().message(),
+              HasSubstr("resampling 11 slices would need 2000001 output slices"));
   auto inf = make_uniform_z(std::make_unique<FakeSource>(std::vector<double>{0, 1, HUGE_VAL}), {});
   ASSERT_FALSE(inf);
   EXPECT_THAT(inf.error().message(), HasSubstr("slice positions are not usable numbers"));

@@ -242,7 +242,8 @@ TEST(Value, ABoardWithADeadKnotNearOneEndIsCrossCutAndWorthMore) {
   log.knots.push_back(knot_along_x(1, 400.0, 10.0, 20.0));  // 20 mm dead on face+
   const SawLog saw_log(log);
   const Pattern p = centred_board(40.0, 150.0);
-  const std::string json = R"({"format": "sawyer-prices/1", "default": {"A": 500, "B": 300, "C": 100},
+  const std::string json =
+      R"({"format": "sawyer-prices/1", "default": {"A": 500, "B": 300, "C": 100},
       "lengths": {"step_mm": 300, "min_mm": 1800}})";
   Result<PriceTable> prices = prices_from_json(json);
   ASSERT_TRUE(prices.ok()) << prices.error().message();

@@ -40,7 +40,6 @@ std::string memory_limit() {
 #endif
 }
 
-
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 using ::testing::HasSubstr;
@@ -284,22 +283,22 @@ TEST(SawingLimits, GridOptionsOutOfRangeAreRefusedNamingTheOption) {
   EXPECT_EQ(options_error([](O& o) { o.rot_step_deg = 0.5, o.offset_x_max_mm = 50; }),
             "(accepted)");
   EXPECT_THAT(options_error([](O& o) { o.rot_step_deg = 1e-9; }),
-              HasSubstr("rotation step (--rot-step): 1e-09° is outside 0.01-180°"));
+              HasSubstr("rotation step (rot_step_deg): 1e-09° is outside 0.01-180°"));
   EXPECT_THAT(options_error([](O& o) { o.offset_x_max_mm = 1e9, o.offset_x_step_mm = 1e-3; }),
-              HasSubstr("offset x (--offsets): 1e+09 mm is outside 0-1500 mm"));
+              HasSubstr("offset x (offset_x_max_mm): 1e+09 mm is outside 0-1500 mm"));
   EXPECT_THAT(options_error([](O& o) { o.offset_x_max_mm = 10, o.offset_x_step_mm = 1e-9; }),
-              HasSubstr("offset x step (--offset-step): 1e-09 mm is outside 0.01-10 mm"));
+              HasSubstr("offset x step (offset_x_step_mm): 1e-09 mm is outside 0.01-10 mm"));
   EXPECT_THAT(options_error([](O& o) { o.offset_y_max_mm = 1e300; }),
-              HasSubstr("(--offsets-y): 1e+300 mm is outside"));
+              HasSubstr("(offset_y_max_mm): 1e+300 mm is outside"));
   EXPECT_THAT(options_error([](O& o) { o.sigma_rot_deg = 1e6; }),
-              HasSubstr("sigma (--sigma-rot): 1e+06° is outside 0-90°"));
+              HasSubstr("sigma (sigma_rot_deg): 1e+06° is outside 0-90°"));
   EXPECT_THAT(options_error([](O& o) { o.sigma_offset_mm = 1e300; }),
-              HasSubstr("sigma (--sigma-offset): 1e+300 mm is outside 0-100 mm"));
+              HasSubstr("sigma (sigma_offset_mm): 1e+300 mm is outside 0-100 mm"));
   // Each step in range, the grid too big: 18000 rotations × 2001 × 1 offsets.
   const std::string big = options_error(
       [](O& o) { o.rot_step_deg = 0.01, o.offset_x_max_mm = 10, o.offset_x_step_mm = 0.01; });
   EXPECT_THAT(big, HasSubstr("sawing grid: 3.6018e+07 positions (18000 rotations × 2001 × 1"));
-  EXPECT_THAT(big, HasSubstr("--rot-step 0.01, --offsets 10 --offset-step 0.01"));
+  EXPECT_THAT(big, HasSubstr("rot_step_deg 0.01, offset_x_max_mm 10 offset_x_step_mm 0.01"));
   EXPECT_THAT(big, HasSubstr("more than the 1e+06 allowed"));
 }
 
@@ -309,10 +308,11 @@ TEST(SawingLimits, PositionsOutOfRangeAreRefused) {
   Result<sawing::LogPosition> p = sawing::parse_position("1e300");
   ASSERT_FALSE(p);
   EXPECT_THAT(p.error().message(),
-              HasSubstr("--position: rotation 1e+300° is outside -360 to 360°"));
+              HasSubstr("SawNames::position: rotation 1e+300° is outside -360 to 360°"));
   p = sawing::parse_position("0,0,-1e9");
   ASSERT_FALSE(p);
-  EXPECT_THAT(p.error().message(), HasSubstr("--position: y offset -1e+09 mm is outside -1500"));
+  EXPECT_THAT(p.error().message(),
+              HasSubstr("SawNames::position: y offset -1e+09 mm is outside -1500"));
 }
 
 TEST(SawingLimits, HugeGridsAreRefusedByTheCommandsBeforeAnyWork) {
@@ -324,8 +324,8 @@ TEST(SawingLimits, HugeGridsAreRefusedByTheCommandsBeforeAnyWork) {
         std::string("--position 0,1e9")}) {
     std::string out;
     const int rc = test::run_command(
-        memory_limit() + "timeout 60 " + test::quoted(test::sawyer_bin()) + " saw " + log +
-            " -q " + opts + " -o " + test::quoted(dir / "sawing.json") + " 2>&1",
+        memory_limit() + "timeout 60 " + test::quoted(test::sawyer_bin()) + " saw " + log + " -q " +
+            opts + " -o " + test::quoted(dir / "sawing.json") + " 2>&1",
         &out);
     EXPECT_EQ(rc, 1) << opts << "\n" << out;
     EXPECT_EQ(lines(out), 1u) << out;
@@ -418,24 +418,26 @@ TEST(RenderLimits, SizesPastTheSideOrMemoryBudgetAreRefused) {
   EXPECT_TRUE(check_image_size(4096, 4096, 2, false));
   Status st = check_image_size(16384, 100, 1, false);
   ASSERT_FALSE(st);
-  EXPECT_THAT(st.error().message(), HasSubstr("--size: 16384x100 outside 1..8192 pixels"));
+  EXPECT_THAT(st.error().message(), HasSubstr("ImageSize: 16384x100 outside 1..8192 pixels"));
   st = check_image_size(8192, 8192, 2, false);
   ASSERT_FALSE(st);
   EXPECT_THAT(st.error().message(),
-              HasSubstr("--size: 8192x8192 at 2x2 supersampling needs 1024 MiB of framebuffer, "
+              HasSubstr("ImageSize: 8192x8192 at 2x2 supersampling needs 1024 MiB of framebuffer, "
                         "more than the 512 MiB allowed"));
   st = check_image_size(8192, 8192, 1, true);  // the float field: 16 bytes a sample
   ASSERT_FALSE(st);
-  EXPECT_THAT(st.error().message(), HasSubstr("--size: 8192x8192 needs 1024 MiB"));
+  EXPECT_THAT(st.error().message(), HasSubstr("ImageSize: 8192x8192 needs 1024 MiB"));
 }
 
 TEST(RenderLimits, BoardGeometryOutOfRangeIsRefused) {
   EXPECT_TRUE(render::Board::from_string("0,0,150,50,0,100,3900"));
   for (const auto& [text, message] : std::vector<std::pair<std::string, std::string>>{
-           {"0,0,1e300,50,0,100,3900", "--board: board: width 1e+300 is outside 0-3000 mm"},
-           {"0,0,150,50,1e6,100,3900", "--board: rotation 1e+06° is outside -360 to 360°"},
-           {"1e9,0,150,50,0,100,3900", "--board: board: centre x 1e+09 is outside"},
-           {"0,0,150,50,0,-1e12,3900", "--board: board: z0 -1e+12 is outside"}}) {
+           {"0,0,1e300,50,0,100,3900",
+            "Board::from_string: board: width 1e+300 is outside 0-3000 mm"},
+           {"0,0,150,50,1e6,100,3900",
+            "Board::from_string: rotation 1e+06° is outside -360 to 360°"},
+           {"1e9,0,150,50,0,100,3900", "Board::from_string: board: centre x 1e+09 is outside"},
+           {"0,0,150,50,0,-1e12,3900", "Board::from_string: board: z0 -1e+12 is outside"}}) {
     Result<render::Board> b = render::Board::from_string(text);
     ASSERT_FALSE(b) << text;
     EXPECT_THAT(b.error().message(), HasSubstr(message));

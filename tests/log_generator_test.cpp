@@ -1,9 +1,9 @@
 // The random log generator: determinism, realistic ranges over many seeds, valid models that
 // survive log.json exactly, and options checked with a message naming the bad one.
 //
-// The ranges asserted here are the product's (DESIGN.md section 6 and the sawmill engineer's
-// brief), written out as literals on purpose: they are the specification that the generator's
-// own constants must stay inside, not a copy of them.
+// The ranges asserted here are the product's (docs/architecture.md section 6 and the sawmill
+// engineer's brief), written out as literals on purpose: they are the specification that the
+// generator's own constants must stay inside, not a copy of them.
 #include "sawyer/model/log_generator.h"
 
 #include <gmock/gmock.h>

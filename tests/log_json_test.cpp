@@ -166,11 +166,17 @@ TEST(LogJson, ScannerFrameRoundTripsAndIsOptional) {
   };
   EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["z_dir"] = 0.5; }),
               HasSubstr("scanner_frame.z_dir: 0.5 must be 1 or -1"));
-  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["row_dir"] = {2, 0, 0}; }),
+  EXPECT_THAT(bad([](Json& j) {
+                j["scanner_frame"]["row_dir"] = {2, 0, 0};
+              }),
               HasSubstr("scanner_frame.row_dir: (2, 0, 0) is not a unit vector"));
-  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["col_dir"] = {1, 0, 0}; }),
+  EXPECT_THAT(bad([](Json& j) {
+                j["scanner_frame"]["col_dir"] = {1, 0, 0};
+              }),
               HasSubstr("scanner_frame.col_dir: is not perpendicular to row_dir"));
-  EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["origin_mm"] = {0, 0}; }),
+  EXPECT_THAT(bad([](Json& j) {
+                j["scanner_frame"]["origin_mm"] = {0, 0};
+              }),
               HasSubstr("scanner_frame.origin_mm: has 2 values, expected 3"));
   EXPECT_THAT(bad([](Json& j) { j["scanner_frame"]["z0_mm"] = 1e9; }),
               HasSubstr("scanner_frame.z0_mm: 1e+09 mm is outside -100000 to 100000 mm"));
@@ -199,7 +205,9 @@ TEST(LogJson, MalformedFilesNameTheKeyAndTheProblem) {
               HasSubstr("stem.radius[2][3]: radius must be a positive"));
   EXPECT_THAT(error_after([](Json& j) { j["stem"]["radius"][2][3] = nullptr; }),
               HasSubstr("stem.radius[2][3]: expected a number, got null"));
-  EXPECT_THAT(error_after([](Json& j) { j["stem"]["pith"][4] = {1, 2, 3}; }),
+  EXPECT_THAT(error_after([](Json& j) {
+                j["stem"]["pith"][4] = {1, 2, 3};
+              }),
               HasSubstr("stem.pith[4]: expected [x, y]"));
   EXPECT_THAT(error_after([](Json& j) { j["knots"][2].erase("r_end"); }),
               HasSubstr("knots[2].r_end: missing key"));
@@ -215,8 +223,7 @@ TEST(LogJson, MalformedFilesNameTheKeyAndTheProblem) {
               HasSubstr("stem.bark_mm: has 4 values"));
   EXPECT_THAT(error_after([](Json& j) { j["stem"]["heartwood"][0][0] = -1; }),
               HasSubstr("stem.heartwood[0][0]: must not be negative"));
-  EXPECT_THAT(error_after([](Json& j) { j = Json::array(); }),
-              HasSubstr("expected a JSON object"));
+  EXPECT_THAT(error_after([](Json& j) { j = Json::array(); }), HasSubstr("expected a JSON object"));
 }
 
 TEST(LogJson, TruncatedFileNamesTheFileAndLine) {

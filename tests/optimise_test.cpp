@@ -238,7 +238,7 @@ TEST(Optimise, AKnotAtAGradeLimitChangesTheChoiceOnlyWhenItsUncertaintySaysItMay
   big.model_draws = 64;
   const Status s_big = big.validate(p);
   ASSERT_FALSE(s_big.ok());
-  EXPECT_NE(s_big.error().message().find("--scan-draws"), std::string::npos)
+  EXPECT_NE(s_big.error().message().find("model draws (model_draws)"), std::string::npos)
       << s_big.error().message();
   big.model_draws = 0;
   EXPECT_TRUE(big.validate(p).ok());

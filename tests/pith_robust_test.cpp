@@ -25,7 +25,7 @@ using test::percentile;
 struct Outcome {
   bool ok = false;
   double median = 0, p95 = 0;
-  double shape_median = 0;  // the shape centre's median error, for comparison
+  double shape_median = 0;   // the shape centre's median error, for comparison
   double whorl_median = -1;  // the kept whorl meeting points' median error (-1: none)
   StemScan scan;
 };
@@ -57,14 +57,15 @@ Outcome run(const std::string& log_name, double from_mm, double to_mm, PhantomOp
   if (std::getenv("PITH_DEBUG"))
     for (const StemSliceRecord& rec : scan.value().slices) {
       const Vec2 want = truth.stem.pith_at(rec.z);
-      std::printf("z %7.1f pith %6.2f shape %6.2f refined %6.2f raw %6.2f whorl %6.2f%s (%d) sig "
-                  "%.2f per %.2f exp %.2f %s\n",
-                  rec.z, (rec.pith - want).norm(), (rec.pith_shape - want).norm(),
-                  rec.pith_refined.found ? (rec.pith_refined.pith_mm - want).norm() : -1.0,
-                  rec.pith_raw.found ? (rec.pith_raw.pith_mm - want).norm() : -1.0,
-                  rec.whorl_found ? (rec.pith_whorl - want).norm() : -1.0,
-                  rec.whorl_used ? "*" : " ", rec.whorl_knots, rec.ring_signal, rec.ring_period_mm,
-                  rec.pith_expected_error_mm, pith_cue_name(rec.pith_cue));
+      std::printf(
+          "z %7.1f pith %6.2f shape %6.2f refined %6.2f raw %6.2f whorl %6.2f%s (%d) sig "
+          "%.2f per %.2f exp %.2f %s\n",
+          rec.z, (rec.pith - want).norm(), (rec.pith_shape - want).norm(),
+          rec.pith_refined.found ? (rec.pith_refined.pith_mm - want).norm() : -1.0,
+          rec.pith_raw.found ? (rec.pith_raw.pith_mm - want).norm() : -1.0,
+          rec.whorl_found ? (rec.pith_whorl - want).norm() : -1.0, rec.whorl_used ? "*" : " ",
+          rec.whorl_knots, rec.ring_signal, rec.ring_period_mm, rec.pith_expected_error_mm,
+          pith_cue_name(rec.pith_cue));
     }
   out.ok = true;
   out.median = percentile(err, 0.5);
@@ -79,12 +80,12 @@ Outcome run(const std::string& log_name, double from_mm, double to_mm, PhantomOp
   for (const StemSliceRecord& rec : out.scan.slices)
     if (rec.whorl_used) whorl_err.push_back((rec.pith_whorl - truth.stem.pith_at(rec.z)).norm());
   if (!whorl_err.empty()) out.whorl_median = percentile(whorl_err, 0.5);
-  std::printf("[pith robust] %-44s %3zu slices | median %.2f p95 %.2f mm (shape centre %.2f) | "
-              "rings resolved on %.0f %%, whorl cue on %.0f %%, shape cue on %.0f %%, expected "
-              "error median %.2f mm\n",
-              label, err.size(), out.median, out.p95, out.shape_median,
-              100 * s.rings_resolved_share, 100 * s.whorl_share, 100 * s.shape_share,
-              s.median_expected_error_mm);
+  std::printf(
+      "[pith robust] %-44s %3zu slices | median %.2f p95 %.2f mm (shape centre %.2f) | "
+      "rings resolved on %.0f %%, whorl cue on %.0f %%, shape cue on %.0f %%, expected "
+      "error median %.2f mm\n",
+      label, err.size(), out.median, out.p95, out.shape_median, 100 * s.rings_resolved_share,
+      100 * s.whorl_share, 100 * s.shape_share, s.median_expected_error_mm);
   return out;
 }
 

@@ -16,9 +16,9 @@
 
 #include "sawyer/ct/phantom.h"
 #include "sawyer/ct/phantom_source.h"
-#include "sawyer/ct/stem_scan.h"
 #include "sawyer/ct/pith_track.h"
 #include "sawyer/ct/stem_detect.h"
+#include "sawyer/ct/stem_scan.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
 
@@ -98,10 +98,11 @@ Measured measure(const Section& s, const std::string& label) {
   m.raw = stats(e_raw);
   m.smoothed = stats(e_smooth);
   m.slices = static_cast<int>(e_smooth.size());
-  std::printf("[pith] %-40s %2d slices | median/p95/max mm: single slice %.2f/%.2f/%.2f  "
-              "stem pass %.2f/%.2f/%.2f\n",
-              label.c_str(), m.slices, m.raw.median, m.raw.p95, m.raw.max, m.smoothed.median,
-              m.smoothed.p95, m.smoothed.max);
+  std::printf(
+      "[pith] %-40s %2d slices | median/p95/max mm: single slice %.2f/%.2f/%.2f  "
+      "stem pass %.2f/%.2f/%.2f\n",
+      label.c_str(), m.slices, m.raw.median, m.raw.p95, m.raw.max, m.smoothed.median,
+      m.smoothed.p95, m.smoothed.max);
   return m;
 }
 
@@ -221,9 +222,9 @@ TEST(Pith, Gran1PithTurnDoubledNoise) {
   EXPECT_LE(m.smoothed.p95, 6.0);
 }
 
-// Homothetic rings (the log model's own stem time, DESIGN.md 5) around an off-centre pith in an
-// oval, off-centre section: with the outline the ring-profile refinement lands on the pith;
-// fitting circles instead is pulled towards the section's centre.
+// Homothetic rings (the log model's own stem time, docs/architecture.md 5) around an off-centre
+// pith in an oval, off-centre section: with the outline the ring-profile refinement lands on the
+// pith; fitting circles instead is pulled towards the section's centre.
 TEST(Pith, ConcentricRefinementFollowsTheOutline) {
   Slice s = air_slice(6);
   const Vec2 pith{198.4, 207.3};

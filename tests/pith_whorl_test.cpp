@@ -89,7 +89,7 @@ TEST(PithWhorl, TwoKnotsAreEnough) {
 TEST(PithWhorl, DistractorsAreWeightedOut) {
   Drawn d = wood(kPith, 150, 40, 3);
   whorl(d, kPith, {0.2, 2.3, 4.4});
-  bar(d, kPith + Vec2{-20, 30}, 0.05, 22.0, 4.0, 500.0);        // tangential, well off the pith
+  bar(d, kPith + Vec2{-20, 30}, 0.05, 22.0, 4.0, 500.0);  // tangential, well off the pith
   bar(d, Vec2{5, 110}, -0.35, 120.0, 2.5, 2500.0);  // a metal streak across the slice and a knot
   const WhorlPith w = whorl_pith(d.crop, d.g, kRegion, 60.0, 40.0);
   ASSERT_TRUE(w.found);

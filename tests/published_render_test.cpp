@@ -2,8 +2,8 @@
 // Maria Larsson; notice in ../source/LICENSE.txt), imported by our importer and drawn by our GLSL
 // renderer, shows the same rings and knots in the same places as the paper's published renderer
 // would. "Would" is tests/published_renderer_port.*: an independent port of that renderer's
-// rules, written from their description (paper 4.1-4.4, DESIGN.md 8, docs/maps.md), which reads
-// the BMP maps itself.
+// rules, written from their description (paper 4.1-4.4, docs/architecture.md 8, docs/maps.md),
+// which reads the BMP maps itself.
 //
 // The board. The paper shows spruce planks from this log (Fig. 17b) but gives no placement, so we
 // take a stretch through the log's whorl region: z 2.4-3.0 m holds 20 knot starts, among them the

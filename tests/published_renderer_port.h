@@ -1,8 +1,8 @@
 // A small, independent port of the RULES of the reference paper's published renderer (Larsson et
 // al. 2022, github.com/marialarsson/procedural_knots), written from their description (paper
-// sections 4.1-4.4, DESIGN.md section 8, docs/maps.md), not from its code. Test-only: it says what
-// that renderer would show at a point of a log given by its published maps, so that a test can
-// hold Sawyer's importer + GLSL renderer against it (tests/published_render_test.cpp).
+// sections 4.1-4.4, docs/architecture.md section 8, docs/maps.md), not from its code. Test-only: it
+// says what that renderer would show at a point of a log given by its published maps, so that a
+// test can hold Sawyer's importer + GLSL renderer against it (tests/published_render_test.cpp).
 //
 // It reads the maps itself (its own 24-bit BMP reader and JSON parse; nothing of libs/maps), and
 // evaluates:

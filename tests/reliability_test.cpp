@@ -96,8 +96,7 @@ TEST(DataLoss, RunNeverReplacesAForeignFolderOrAFile) {
   std::string out;
   EXPECT_EQ(test::run_sawyer(run_args(small_ct(), thesis, dir.path()), &out), 1) << out;
   EXPECT_TRUE(mentions(out, "thesis") && mentions(out, "not empty")) << out;
-  EXPECT_EQ(test::run_sawyer(run_args(small_ct(), dir / "notes.txt", dir.path()), &out), 1)
-      << out;
+  EXPECT_EQ(test::run_sawyer(run_args(small_ct(), dir / "notes.txt", dir.path()), &out), 1) << out;
   EXPECT_TRUE(mentions(out, "notes.txt") && mentions(out, "is a file")) << out;
   std::ifstream a(thesis / "chapter1.tex"), b(dir / "notes.txt");
   std::string la, lb;
@@ -153,8 +152,7 @@ TEST(DataLoss, FileOutputsNeverReplaceTheirInputAFolderOrAFifo) {
   fs::copy_file(test::sample_log("pine_8") / "log.json", log);
   const auto size = fs::file_size(log);
   std::string out;
-  EXPECT_EQ(test::run_sawyer("convert " + test::quoted(log) + " -o " + test::quoted(log), &out),
-            1)
+  EXPECT_EQ(test::run_sawyer("convert " + test::quoted(log) + " -o " + test::quoted(log), &out), 1)
       << out;
   EXPECT_TRUE(mentions(out, "is the input")) << out;
   EXPECT_EQ(test::run_sawyer("saw " + test::quoted(log) + " -o " + test::quoted(log), &out), 1)
@@ -162,8 +160,7 @@ TEST(DataLoss, FileOutputsNeverReplaceTheirInputAFolderOrAFifo) {
   EXPECT_TRUE(mentions(out, "is the input")) << out;
   EXPECT_EQ(fs::file_size(log), size);
   fs::create_directories(dir / "folder.json");
-  EXPECT_EQ(test::run_sawyer("generate --seed 3 -o " + test::quoted(dir / "folder.json"), &out),
-            1)
+  EXPECT_EQ(test::run_sawyer("generate --seed 3 -o " + test::quoted(dir / "folder.json"), &out), 1)
       << out;
   EXPECT_TRUE(mentions(out, "is a folder")) << out;
   const fs::path fifo = dir / "pipe.json";
@@ -226,13 +223,18 @@ std::string run_script(const fs::path& dir, const std::string& script) {
 std::string interrupt_while_writing(const std::string& args, const fs::path& dir,
                                     const std::string& name, const std::string& signal,
                                     int wait_s = 120) {
-  const std::string script =
-      "cd " + test::quoted(dir) + "; \"" + test::sawyer_bin() + "\" " + args +
-      " >/dev/null 2>&1 & p=$!; seen=0; i=0; "
-      "while kill -0 $p 2>/dev/null && [ $i -lt " + std::to_string(wait_s * 500) + " ]; do "
-      "  if ls -A | grep -q '^\\." + name + "\\.tmp'; then seen=1; break; fi; "
-      "  sleep 0.002; i=$((i+1)); done; "
-      "kill -" + signal + " $p 2>/dev/null; wait $p; echo rc=$? seen=$seen";
+  const std::string script = "cd " + test::quoted(dir) + "; \"" + test::sawyer_bin() + "\" " +
+                             args +
+                             " >/dev/null 2>&1 & p=$!; seen=0; i=0; "
+                             "while kill -0 $p 2>/dev/null && [ $i -lt " +
+                             std::to_string(wait_s * 500) +
+                             " ]; do "
+                             "  if ls -A | grep -q '^\\." +
+                             name +
+                             "\\.tmp'; then seen=1; break; fi; "
+                             "  sleep 0.002; i=$((i+1)); done; "
+                             "kill -" +
+                             signal + " $p 2>/dev/null; wait $p; echo rc=$? seen=$seen";
   return run_script(dir, script);
 }
 
@@ -256,8 +258,8 @@ TEST(Interrupt, SigtermWhileRunWritesItsReportLeavesNothing) {
   // three tries make catching it near certain even on a fast machine.
   std::string r;
   for (int attempt = 0; attempt < 3; ++attempt) {
-    const std::string args = "run " + test::quoted(small_ct()) +
-                             " -o out --no-register -q --pattern short_2ex.json";
+    const std::string args =
+        "run " + test::quoted(small_ct()) + " -o out --no-register -q --pattern short_2ex.json";
     r = interrupt_while_writing(args, dir.path(), "out", "TERM");
     if (mentions(r, "seen=1")) break;
     fs::remove_all(dir / "out");
@@ -317,8 +319,7 @@ TEST(Register, NoHomeMeansNoRegisterInTheCurrentFolder) {
                                        test::sawyer_bin() + "\" logs",
                                    &out);
   EXPECT_EQ(rc, 1) << out;
-  EXPECT_TRUE(mentions(out, "HOME") && mentions(out, "--db") && mentions(out, "SAWYER_DB"))
-      << out;
+  EXPECT_TRUE(mentions(out, "HOME") && mentions(out, "--db") && mentions(out, "SAWYER_DB")) << out;
   EXPECT_TRUE(fs::is_empty(dir.path())) << "nothing may be created in the current folder";
 }
 
@@ -339,10 +340,10 @@ TEST(Register, AFailedCreateLeavesNoStub) {
   EXPECT_FALSE(fs::exists(dir / "reg.sqlite-wal"));
   EXPECT_FALSE(fs::exists(dir / "out"));
   // And the same path works once the disk has room.
-  EXPECT_EQ(test::run_sawyer("logs --merge " + test::quoted(dir / "none.sqlite") + " --db " +
-                                 test::quoted(db),
-                             &out),
-            1)
+  EXPECT_EQ(
+      test::run_sawyer(
+          "logs --merge " + test::quoted(dir / "none.sqlite") + " --db " + test::quoted(db), &out),
+      1)
       << out;
   EXPECT_TRUE(mentions(out, "none.sqlite")) << out;
   EXPECT_TRUE(fs::exists(db)) << "the register is created when the disk allows";
@@ -414,12 +415,12 @@ TEST(InventedSlices, RunStatesTheResamplingInItsSummaryRunJsonAndReport) {
   EXPECT_TRUE(mentions(out, "note: resampled along z")) << out;
   EXPECT_TRUE(mentions(out, "3 invented")) << out;
   std::ifstream rj(dir / "out" / "run.json");
-  const std::string run_json((std::istreambuf_iterator<char>(rj)), std::istreambuf_iterator<char>());
+  const std::string run_json((std::istreambuf_iterator<char>(rj)),
+                             std::istreambuf_iterator<char>());
   EXPECT_TRUE(mentions(run_json, "\"invented_slices\": 3")) << run_json;
   EXPECT_TRUE(mentions(run_json, "resampled along z")) << run_json;
-  ASSERT_EQ(test::run_command("pdftotext " + test::quoted(dir / "out" / "report" / "report.pdf") +
-                                  " -",
-                              &out),
+  ASSERT_EQ(test::run_command(
+                "pdftotext " + test::quoted(dir / "out" / "report" / "report.pdf") + " -", &out),
             0);
   EXPECT_TRUE(mentions(out, "Scan: resampled along z")) << out;
   // And a scan with every slice in place says nothing of the kind.
@@ -457,8 +458,8 @@ TEST(DataLoss, ABatchFolderIsRecognisedByItsOwnFilesOnly) {
             1)
       << out;
   EXPECT_TRUE(mentions(out, "not empty")) << out;
-  EXPECT_EQ(listing(dir / "project"), (std::vector<std::string>{"logs/field_notes.txt:6",
-                                                                "logs:dir"}));
+  EXPECT_EQ(listing(dir / "project"),
+            (std::vector<std::string>{"logs/field_notes.txt:6", "logs:dir"}));
   // A manifest kept in the batch's own folder is fine: the batch never replaces the folder.
   test::write_file(dir / "b" / "m.csv", "ct,id\n" + small_ct().string() + ",good\n");
   fs::create_directories(dir / "b" / "logs");

@@ -460,8 +460,8 @@ TEST(Report, ShowsTheOffcutsOfACrossCutBoard) {
   test::write_file(dir / "sawing.json", s.dump());
   ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
   char want[96];
-  std::snprintf(want, sizeof want, "cross-cut from %.2f m: 0.60 m off at z %.2f m", (z1 - z0) * 1e-3,
-                z0 * 1e-3);
+  std::snprintf(want, sizeof want, "cross-cut from %.2f m: 0.60 m off at z %.2f m",
+                (z1 - z0) * 1e-3, z0 * 1e-3);
   EXPECT_NE(read(dir / "report/report.html").find(want), std::string::npos) << want;
 
   b["offcuts_mm"] = {600.0};

@@ -20,7 +20,8 @@ using Json = nlohmann::json;
 
 namespace {
 
-// 40 cm of the real spruce log at 0.8 mm pixels (test_util.h): small enough to scan in a second or two.
+// 40 cm of the real spruce log at 0.8 mm pixels (test_util.h): small enough to scan in a second or
+// two.
 fs::path small_ct() { return test::gran1_40cm_ct(); }
 
 // 2ex with boards kept from 200 mm: the test log is short.
@@ -67,9 +68,9 @@ TEST(RunCli, WritesScanSawingReportAndRegistersTheLog) {
                           " --pattern " + test::quoted(short_pattern(dir)) + " --db " +
                           test::quoted(dir / "logs.sqlite") + " --id g40 --species spruce";
   ASSERT_EQ(test::run_sawyer(cmd, &out), 0) << out;
-  for (const char* f : {"scan/log.json", "scan/qa/pith_track.png", "sawing.json", "run.json",
-                        "report/report.pdf", "report/report.html", "report/boards.csv",
-                        "report/report.json"})
+  for (const char* f :
+       {"scan/log.json", "scan/qa/pith_track.png", "sawing.json", "run.json", "report/report.pdf",
+        "report/report.html", "report/boards.csv", "report/report.json"})
     EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
   const Json saw = read_json(dir / "out" / "sawing.json");
   ASSERT_FALSE(saw.is_discarded());
@@ -156,8 +157,8 @@ TEST(RunCli, AScanThatFailsItsQaIsWrittenMarkedAndExitsThree) {
   ASSERT_FALSE(ct.empty());
   test::TempDir dir;
   std::string out;
-  ASSERT_EQ(test::run_sawyer("scan " + test::quoted(ct) + " -o " + test::quoted(dir / "scan"), &out),
-            3)
+  ASSERT_EQ(
+      test::run_sawyer("scan " + test::quoted(ct) + " -o " + test::quoted(dir / "scan"), &out), 3)
       << out;
   EXPECT_NE(out.find("QA: NOT TRUSTED"), std::string::npos) << out;
   EXPECT_NE(out.find("the image's edge"), std::string::npos) << out;
@@ -178,8 +179,8 @@ TEST(RunCli, AScanThatFailsItsQaIsWrittenMarkedAndExitsThree) {
                           test::quoted(dir / "logs.sqlite") + " --quiet";
   ASSERT_EQ(test::run_sawyer(cmd, &out), 3) << out;
   EXPECT_NE(out.find("completed with warnings"), std::string::npos) << out;
-  for (const char* f : {"scan/log.json", "sawing.json", "run.json", "report/report.pdf",
-                        "report/report.html"})
+  for (const char* f :
+       {"scan/log.json", "sawing.json", "run.json", "report/report.pdf", "report/report.html"})
     EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
   const Json run = read_json(dir / "out" / "run.json");
   ASSERT_FALSE(run.is_discarded());
@@ -189,9 +190,9 @@ TEST(RunCli, AScanThatFailsItsQaIsWrittenMarkedAndExitsThree) {
   EXPECT_EQ(rows(dir / "logs.sqlite"), 1);  // registered all the same
   std::string pdf_text;
   if (test::run_command("command -v pdftotext >/dev/null", &pdf_text) == 0) {
-    ASSERT_EQ(test::run_command("pdftotext -l 1 " +
-                                    test::quoted(dir / "out" / "report" / "report.pdf") + " -",
-                                &pdf_text),
+    ASSERT_EQ(test::run_command(
+                  "pdftotext -l 1 " + test::quoted(dir / "out" / "report" / "report.pdf") + " -",
+                  &pdf_text),
               0);
     EXPECT_NE(pdf_text.find("NOT TO BE TRUSTED"), std::string::npos) << pdf_text;
     EXPECT_NE(pdf_text.find("image's edge"), std::string::npos) << pdf_text;
@@ -227,11 +228,11 @@ TEST(RunCli, BadCtFolderGivesOneLineAndLeavesNothing) {
   fs::create_directories(dir / "out");
   test::write_file(dir / "out" / "keep.txt", "earlier run\n");
   std::string out;
-  EXPECT_NE(test::run_sawyer("run " + test::quoted(dir / "ct") + " -o " +
-                                 test::quoted(dir / "out") + " -q --db " +
-                                 test::quoted(dir / "logs.sqlite"),
-                             &out),
-            0);
+  EXPECT_NE(
+      test::run_sawyer("run " + test::quoted(dir / "ct") + " -o " + test::quoted(dir / "out") +
+                           " -q --db " + test::quoted(dir / "logs.sqlite"),
+                       &out),
+      0);
   EXPECT_EQ(lines(out), 1u) << out;
   EXPECT_NE(out.find((dir / "ct").string()), std::string::npos) << out;
   EXPECT_TRUE(fs::exists(dir / "out" / "keep.txt"));
@@ -260,11 +261,11 @@ TEST(RunCli, BadPatternIsRefusedBeforeTheScan) {
   test::write_file(dir / "p.json", R"({"format": "sawyer-pattern/1", "boards": 3})");
   std::string out;
   // The CT folder does not exist either: the pattern is checked first.
-  EXPECT_NE(test::run_sawyer("run " + test::quoted(dir / "no_ct") + " -o " +
-                                 test::quoted(dir / "out") + " -q --no-register --pattern " +
-                                 test::quoted(dir / "p.json"),
-                             &out),
-            0);
+  EXPECT_NE(
+      test::run_sawyer("run " + test::quoted(dir / "no_ct") + " -o " + test::quoted(dir / "out") +
+                           " -q --no-register --pattern " + test::quoted(dir / "p.json"),
+                       &out),
+      0);
   EXPECT_EQ(lines(out), 1u) << out;
   EXPECT_NE(out.find("p.json"), std::string::npos) << out;
   EXPECT_NE(out.find("boards"), std::string::npos) << out;
@@ -275,11 +276,11 @@ TEST(RunCli, ABadRegisterFileIsRefusedBeforeTheScan) {
   test::TempDir dir;
   test::write_file(dir / "logs.sqlite", std::string(4096, 'x'));
   std::string out;
-  EXPECT_NE(test::run_sawyer("run " + test::quoted(dir / "no_ct") + " -o " +
-                                 test::quoted(dir / "out") + " -q --db " +
-                                 test::quoted(dir / "logs.sqlite"),
-                             &out),
-            0);
+  EXPECT_NE(
+      test::run_sawyer("run " + test::quoted(dir / "no_ct") + " -o " + test::quoted(dir / "out") +
+                           " -q --db " + test::quoted(dir / "logs.sqlite"),
+                       &out),
+      0);
   EXPECT_EQ(lines(out), 1u) << out;
   EXPECT_NE(out.find("logs.sqlite"), std::string::npos) << out;
   EXPECT_FALSE(fs::exists(dir / "out"));

@@ -100,12 +100,11 @@ TEST(SawCli, WritesRankedPositionsBoardsAndSurface) {
 TEST(SawCli, SaysWhetherHornsDownIsFromTheBowOrAConvention) {
   test::TempDir dir;
   std::string out;
-  ASSERT_EQ(test::run_sawyer("saw " +
-                                 test::quoted(test::sample_log("spruce_77") / "log.json") +
-                                 " -q --pattern tt --rot-step 30 -o " +
-                                 test::quoted(dir / "s77.json"),
-                             &out),
-            0)
+  ASSERT_EQ(
+      test::run_sawyer("saw " + test::quoted(test::sample_log("spruce_77") / "log.json") +
+                           " -q --pattern tt --rot-step 30 -o " + test::quoted(dir / "s77.json"),
+                       &out),
+      0)
       << out;
   EXPECT_NE(out.find("log straight (arc bow 4.1 mm < 6 mm"), std::string::npos) << out;
   EXPECT_NE(out.find("saw set-up at the best position: turn"), std::string::npos) << out;
@@ -116,9 +115,8 @@ TEST(SawCli, SaysWhetherHornsDownIsFromTheBowOrAConvention) {
   // Straight: rotation 0 leaves the log as it lay in the scanner.
   EXPECT_NEAR(j["horns_down"]["scanner"]["turn_deg"].get<double>(), 0.0, 1e-9);
 
-  ASSERT_EQ(test::run_sawyer("saw " + gran1() + " -q --rot-step 30 -o " +
-                                 test::quoted(dir / "g.json"),
-                             &out),
+  ASSERT_EQ(test::run_sawyer(
+                "saw " + gran1() + " -q --rot-step 30 -o " + test::quoted(dir / "g.json"), &out),
             0)
       << out;
   EXPECT_NE(out.find("horns-down from an arc bow of 12.7 mm"), std::string::npos) << out;

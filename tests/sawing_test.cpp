@@ -273,7 +273,8 @@ TEST(Sawing, BadPatternFilesGiveOneClearError) {
 }
 
 TEST(Sawing, BoardVolumeInABigCylinderIsTheBox) {
-  const SawResult r = saw(SawLog(test::cylinder_log(500.0)), test::single_board_pattern(30.0, -20.0, 50.0, 150.0), {});
+  const SawResult r = saw(SawLog(test::cylinder_log(500.0)),
+                          test::single_board_pattern(30.0, -20.0, 50.0, 150.0), {});
   ASSERT_EQ(r.boards.size(), 1u);
   const Board& b = r.boards[0];
   EXPECT_NEAR(b.length_mm(), 3000.0, 1e-9);
@@ -285,7 +286,8 @@ TEST(Sawing, BoardVolumeInABigCylinderIsTheBox) {
 
 TEST(Sawing, WaneWhereABoardLeavesASmallCylinder) {
   // 60 × 150 board about the pith in an R = 80 cylinder: the corners (30, 75) lie outside.
-  const SawResult r = saw(SawLog(test::cylinder_log(80.0)), test::single_board_pattern(0.0, 0.0, 60.0, 150.0), {});
+  const SawResult r =
+      saw(SawLog(test::cylinder_log(80.0)), test::single_board_pattern(0.0, 0.0, 60.0, 150.0), {});
   ASSERT_EQ(r.boards.size(), 1u);
   const Board& b = r.boards[0];
   const double face = 2 * (75.0 - std::sqrt(80.0 * 80.0 - 30.0 * 30.0));  // both ends of a face
@@ -358,7 +360,9 @@ TEST(Sawing, BowFollowsTheOutlineNotThePith) {
   const double L = 3000.0;
   LogModel log = test::synthetic_log(
       L, [](double) { return 150.0; },
-      [L](double z) { return Vec2{12.0 * std::sin(kPi * z / L), 0.0}; });
+      [L](double z) {
+        return Vec2{12.0 * std::sin(kPi * z / L), 0.0};
+      });
   // Radii about each pith that keep the outline a circle of 150 mm about (0, 0).
   for (int i = 0; i < log.stem.slice_count(); ++i) {
     const Vec2 p = log.stem.pith[i];
@@ -415,7 +419,8 @@ TEST(Sawing, HornsDownIsStableOnAPerturbedSShapedTrack) {
         peak = std::max(peak, d.norm());
       }
       for (int i = 0; i < n; ++i)
-        m.stem.pith[i] = m.stem.pith[i] + (0.5 / peak) * smooth[i] + Vec2{0.5 * u(rng), 0.5 * u(rng)};
+        m.stem.pith[i] =
+            m.stem.pith[i] + (0.5 / peak) * smooth[i] + Vec2{0.5 * u(rng), 0.5 * u(rng)};
       const BowInfo b = detect_bow(m.stem);
       ASSERT_FALSE(b.straight);
       worst = std::max(worst, std::abs(angle_diff(b.horns_azimuth, b0.horns_azimuth)));
@@ -659,7 +664,8 @@ bool trim(const Stem& stem, const std::vector<bool>& ok, const WaneRules& rules,
 }
 
 // The boards' geometry (spec, width, z range, volumes, wane) with knots left empty.
-std::vector<Board> boards(const SawLog& log, const Pattern& pattern, const sawing::LogPosition& pos) {
+std::vector<Board> boards(const SawLog& log, const Pattern& pattern,
+                          const sawing::LogPosition& pos) {
   const Stem& stem = log.model().stem;
   const int n = stem.slice_count();
   const double phi = log.turn_at_zero() + pos.rotation_deg * kPi / 180.0;
@@ -681,8 +687,7 @@ std::vector<Board> boards(const SawLog& log, const Pattern& pattern, const sawin
       int lo = -1, hi = m;
       while (hi - lo > 1) {
         const int mid = (lo + hi) / 2;
-        const Wane sw =
-            slice(g, spec.u_mm, spec.v_mm, ht, 0.5 * widths[mid], ta, pattern.wane, i);
+        const Wane sw = slice(g, spec.u_mm, spec.v_mm, ht, 0.5 * widths[mid], ta, pattern.wane, i);
         (sw.ok ? lo : hi) = mid;
       }
       widest[i] = lo;
@@ -883,7 +888,8 @@ TEST(Sawing, AScannerPositionCutsTheSameBoardsOnAnyModelOfTheLog) {
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0.0, 0.3);
   for (int i = 0; i < scanned.stem.slice_count(); ++i) {
-    scanned.stem.pith[i] = scanned.stem.pith[i] + Vec2{0.0005 * scanned.stem.z_at(i) + noise(rng), noise(rng)};
+    scanned.stem.pith[i] =
+        scanned.stem.pith[i] + Vec2{0.0005 * scanned.stem.z_at(i) + noise(rng), noise(rng)};
     for (double& r : scanned.stem.radius[i]) r *= 0.99;
   }
   scanned.stem.z0_mm -= 5.0;  // its first slice is 5 mm further along the log
@@ -942,9 +948,9 @@ TEST(Sawing, AScannerPositionCutsTheSameBoardsOnAnyModelOfTheLog) {
   EXPECT_GE(compared, 3);
   // The true log's own horns-down is another turn: the same cut is a different rotation there.
   const SawLog t_log(truth);
-  EXPECT_NEAR(std::remainder(at.turn_deg - t_log.turn_at_zero() * 180.0 / kPi, 360.0),
-              std::remainder(pos.rotation_deg + (s_log.turn_at_zero() - t_log.turn_at_zero()) *
-                                                    180.0 / kPi,
-                             360.0),
-              1e-9);
+  EXPECT_NEAR(
+      std::remainder(at.turn_deg - t_log.turn_at_zero() * 180.0 / kPi, 360.0),
+      std::remainder(pos.rotation_deg + (s_log.turn_at_zero() - t_log.turn_at_zero()) * 180.0 / kPi,
+                     360.0),
+      1e-9);
 }

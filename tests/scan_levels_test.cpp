@@ -179,8 +179,8 @@ TEST(ScanLevels, Windowed8Bit) {
 }
 
 // A dried log, calibrated 159 HU high, in a windowed 8-bit export whose top (+197 HU) clips a
-// steel plate under it: the spike at the data's top is not a second wood mode, and the log still reads as dried
-// (sweep condition #88, at this geometry, was refused when it did).
+// steel plate under it: the spike at the data's top is not a second wood mode, and the log still
+// reads as dried (sweep condition #88, at this geometry, was refused when it did).
 TEST(ScanLevels, DriedLogWindowedClipsTheBedAtTheTop) {
   PhantomOptions o = small_options();
   o.moisture = Moisture::kDried;
@@ -245,7 +245,8 @@ StemErrors stem_pass(const std::string& log, PhantomOptions o, double from_mm, d
       // The truth's outer radius around its own pith at this azimuth, compared with the scan's
       // contour point re-expressed around the true pith.
       const double w = kTwoPi * k / st.n_angles;
-      const Vec2 p = st.pith[i] + st.radius[i][static_cast<size_t>(k)] * Vec2{std::cos(w), std::sin(w)};
+      const Vec2 p =
+          st.pith[i] + st.radius[i][static_cast<size_t>(k)] * Vec2{std::cos(w), std::sin(w)};
       const Vec2 d = p - truth.stem.pith_at(z);
       const double rt = truth.stem.radius_at(std::atan2(d.y, d.x), z);
       sq += (d.norm() - rt) * (d.norm() - rt);
@@ -264,8 +265,8 @@ TEST(ScanLevels, StemPassOnDriedSection) {
   PhantomOptions o = small_options();
   o.moisture = Moisture::kDried;
   const StemErrors e = stem_pass("spruce_77", o, 1000, 1150);
-  std::printf("[levels] stem pass dried: outer RMS %.2f mm, pith median %.2f mm; %s\n",
-              e.outer_rms, e.pith_median, describe(e.levels).c_str());
+  std::printf("[levels] stem pass dried: outer RMS %.2f mm, pith median %.2f mm; %s\n", e.outer_rms,
+              e.pith_median, describe(e.levels).c_str());
   EXPECT_TRUE(e.levels.dried);
   EXPECT_LE(e.outer_rms, 1.5);
   EXPECT_LE(e.pith_median, 2.0);
@@ -298,8 +299,9 @@ TEST(ScanLevels, StemPassOnShiftedCalibration) {
 
 TEST(ScanLevels, StemPassOnCoarseNoisyCompressedCalibration) {
   const StemErrors e = stem_pass("gran1_spruce", coarse_noisy_options(), 1000, 1250);
-  std::printf("[levels] stem pass coarse noisy slope 0.91: outer RMS %.2f mm, pith median %.2f mm; %s\n",
-              e.outer_rms, e.pith_median, describe(e.levels).c_str());
+  std::printf(
+      "[levels] stem pass coarse noisy slope 0.91: outer RMS %.2f mm, pith median %.2f mm; %s\n",
+      e.outer_rms, e.pith_median, describe(e.levels).c_str());
   EXPECT_TRUE(e.levels.two_wood_modes);
   // A contour on every slice, within a pixel or two of the truth (the bark is under two pixels
   // at 1.8 mm and its blurred step biases the surface inwards; the bed must not be taken).

@@ -439,7 +439,8 @@ TEST(ScanLog, AnOutlineThatLeavesItsNeighboursIsReplacedInTheModelAndTheRecord) 
   int checked = 0;
   for (size_t k = 0; k < bad.contour.radius.size(); k += 10) {
     if (!bad.contour.valid[k]) continue;
-    const double w = kTwoPi * static_cast<double>(k) / static_cast<double>(bad.contour.radius.size());
+    const double w =
+        kTwoPi * static_cast<double>(k) / static_cast<double>(bad.contour.radius.size());
     EXPECT_NEAR(bad.contour.radius[k], s.stem.slices[11].contour.radius[k], 6.0) << "azimuth " << k;
     EXPECT_GT(bad.contour.radius[k], 80.0) << "azimuth " << k << " at " << w;
     ++checked;

@@ -172,10 +172,9 @@ void write_gdcm_series(const fs::path& dir, const Scene& sc, const Axes& ax,
     pixels.SetVR(gdcm::VR::OW);
     pixels.SetByteValue(bytes.data(), static_cast<uint32_t>(bytes.size()));
     ds.Replace(pixels);
-    w.GetFile().GetHeader().SetDataSetTransferSyntax(
-        gdcm::TransferSyntax::ExplicitVRLittleEndian);
-    const fs::path file = dir / ("IM" + std::to_string(1000 + (k * 13) % 97) + "_" +
-                                 std::to_string(k) + ".dcm");
+    w.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
+    const fs::path file =
+        dir / ("IM" + std::to_string(1000 + (k * 13) % 97) + "_" + std::to_string(k) + ".dcm");
     w.SetFileName(file.c_str());
     ASSERT_TRUE(w.Write()) << file;
   }
@@ -201,11 +200,11 @@ void write_mha(const fs::path& file, const Scene& sc, const Axes& ax) {
   const Vec3 o = file_position(sc, L, 0), n = ax.normal();
   std::ofstream out(file, std::ios::binary);
   out << "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
-      << "TransformMatrix = " << ax.row.x << " " << ax.row.y << " " << ax.row.z << " "
-      << ax.col.x << " " << ax.col.y << " " << ax.col.z << " " << n.x << " " << n.y << " " << n.z
+      << "TransformMatrix = " << ax.row.x << " " << ax.row.y << " " << ax.row.z << " " << ax.col.x
+      << " " << ax.col.y << " " << ax.col.z << " " << n.x << " " << n.y << " " << n.z
       << "\nOffset = " << o.x << " " << o.y << " " << o.z << "\nElementSpacing = " << sc.px << " "
-      << sc.px << " " << sc.dz << "\nDimSize = " << sc.w << " " << sc.w << " "
-      << sc.slices.size() << "\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
+      << sc.px << " " << sc.dz << "\nDimSize = " << sc.w << " " << sc.w << " " << sc.slices.size()
+      << "\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
   out << raw_volume(sc, L);
 }
 
@@ -287,12 +286,9 @@ struct Case {
 };
 
 const Case kAxial[] = {
-    {"standard", {{1, 0, 0}, {0, 1, 0}}},
-    {"row_flipped", {{-1, 0, 0}, {0, 1, 0}}},
-    {"column_flipped", {{1, 0, 0}, {0, -1, 0}}},
-    {"both_flipped", {{-1, 0, 0}, {0, -1, 0}}},
-    {"swapped", {{0, 1, 0}, {1, 0, 0}}},
-    {"swapped_flipped", {{0, -1, 0}, {1, 0, 0}}},
+    {"standard", {{1, 0, 0}, {0, 1, 0}}},        {"row_flipped", {{-1, 0, 0}, {0, 1, 0}}},
+    {"column_flipped", {{1, 0, 0}, {0, -1, 0}}}, {"both_flipped", {{-1, 0, 0}, {0, -1, 0}}},
+    {"swapped", {{0, 1, 0}, {1, 0, 0}}},         {"swapped_flipped", {{0, -1, 0}, {1, 0, 0}}},
 };
 
 class DicomAxes : public ::testing::TestWithParam<Case> {};
@@ -317,7 +313,9 @@ TEST_P(DicomAxes, PithWhereTheScannerSaysItIs) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ScannerFrame, DicomAxes, ::testing::ValuesIn(kAxial),
-                         [](const ::testing::TestParamInfo<Case>& p) { return std::string(p.param.name); });
+                         [](const ::testing::TestParamInfo<Case>& p) {
+                           return std::string(p.param.name);
+                         });
 
 TEST(ScannerFrame, MetaImageWithFlippedRowsAndOrigin) {
   test::TempDir dir;
@@ -443,9 +441,8 @@ TEST(ScannerFrame, ObliqueSeriesRefused) {
   const double c = std::cos(10 * kPi / 180), s = std::sin(10 * kPi / 180);
   write_gdcm_series(dir / "ct", scene(), {{1, 0, 0}, {0, 1, 0}}, {1, 0, 0, 0, c, s});
   std::string text;
-  EXPECT_EQ(test::run_sawyer("scan " + test::quoted(dir / "ct") + " -o " +
-                                 test::quoted(dir / "scan"),
-                             &text),
+  EXPECT_EQ(test::run_sawyer(
+                "scan " + test::quoted(dir / "ct") + " -o " + test::quoted(dir / "scan"), &text),
             1)
       << text;
   EXPECT_THAT(text, HasSubstr((dir / "ct").string() + ": slice orientation rows (1, 0, 0), "

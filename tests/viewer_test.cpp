@@ -21,9 +21,9 @@
 #include "knot_mesh.h"
 #include "orbit_camera.h"
 #include "sawing_session.h"
-#include "sawyer/sawing/setup.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/render/image.h"
+#include "sawyer/sawing/setup.h"
 #include "sawyer/test/test_util.h"
 
 namespace sawyer::view {
@@ -315,11 +315,22 @@ TEST(ViewerSawing, SessionSawsValuesPlacesAndSavesThePosition) {
   EXPECT_FALSE(read_saw_position(dir / "missing.json").ok());
   {
     std::ofstream bad(dir / "bad.json");
-    bad << "{\"given_position\": {\"rotation_deg\": 1}}";
+    bad << "{\"format\": \"sawyer-sawing/1\", \"horns_down\": {\"rotation_deg\": 0, "
+           "\"offset_x_mm\": 0, \"offset_y_mm\": 0, \"value\": 1}, "
+           "\"given_position\": {\"rotation_deg\": 1}}";
   }
   Result<sawing::LogPosition> bad = read_saw_position(dir / "bad.json");
   ASSERT_FALSE(bad.ok());
   EXPECT_THAT(bad.error().message(), HasSubstr("offset_x_mm"));
+  // The one sawing-file reader (sawyer/sawing/sawing_file.h) wants the format tag.
+  {
+    std::ofstream untagged(dir / "untagged.json");
+    untagged << "{\"given_position\": {\"rotation_deg\": 1, \"offset_x_mm\": 0, "
+                "\"offset_y_mm\": 0, \"value\": 1}}";
+  }
+  Result<sawing::LogPosition> untagged = read_saw_position(dir / "untagged.json");
+  ASSERT_FALSE(untagged.ok());
+  EXPECT_THAT(untagged.error().message(), HasSubstr("untagged.json: format"));
 }
 
 TEST(ViewerSawing, UnknownPatternOrGradingIsAnErrorNamingIt) {

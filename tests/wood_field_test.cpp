@@ -90,10 +90,11 @@ TEST(WoodField, KnotMaterialAgreesWithTheModel) {
       const FieldSample got = field.sample(p);
       ASSERT_TRUE(got.inside());
       ++checked;
-      const bool want_knot = want.material == Material::kSoundKnot ||
-                             want.material == Material::kDeadKnot;
-      if (want_knot != (got.knot >= 0) || (want_knot && (want.knot != got.knot ||
-          (want.material == Material::kDeadKnot) != got.dead))) {
+      const bool want_knot =
+          want.material == Material::kSoundKnot || want.material == Material::kDeadKnot;
+      if (want_knot != (got.knot >= 0) ||
+          (want_knot &&
+           (want.knot != got.knot || (want.material == Material::kDeadKnot) != got.dead))) {
         continue;
       }
       if (want_knot) {
@@ -108,8 +109,8 @@ TEST(WoodField, KnotMaterialAgreesWithTheModel) {
   EXPECT_GT(dead, 200);
 }
 
-// True when p is within a knot's range of influence (DESIGN.md 5: 0.2 r_ref + r around the
-// axis, up to the end of its overgrown stub), by the model's knot formula directly.
+// True when p is within a knot's range of influence (docs/architecture.md 5: 0.2 r_ref + r around
+// the axis, up to the end of its overgrown stub), by the model's knot formula directly.
 bool within_reach_of_a_knot(const LogModel& log, const WoodField& field, const Vec3& p) {
   double r, w;
   log.stem.polar(p, &r, &w);
@@ -181,8 +182,8 @@ TEST(WoodField, HasNoJumpsAlongALine) {
       const FieldSample s = field.sample(stem_point(log, z, w, f));
       // The one real discontinuity: the end of a knot, where the stub's early wood meets stem
       // wood grown over it later.
-      const bool knot_end = prev.knot >= 0 && s.knot != prev.knot &&
-                            std::abs(s.r - log.knots[prev.knot].r_end) < 0.2;
+      const bool knot_end =
+          prev.knot >= 0 && s.knot != prev.knot && std::abs(s.r - log.knots[prev.knot].r_end) < 0.2;
       if (prev.t >= 0 && !knot_end) {
         EXPECT_LT(std::abs(s.t - prev.t), 0.01) << "knot " << k.id << " at t_stem " << s.t_stem;
         ++checked;

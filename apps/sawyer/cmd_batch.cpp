@@ -4,6 +4,7 @@
 // log in the shared register (WAL + busy timeout make concurrent writers safe on a local disk);
 // the batch only reads it back for the value column of batch_<i>.csv.
 #include "cmd_batch.h"
+#include "cli_error.h"
 
 #include <unistd.h>
 
@@ -39,11 +40,6 @@ struct BatchCli {
   bool no_register = false;
   std::vector<std::string> pass;  // after "--": handed to every `sawyer run`
 };
-
-int fail(const Error& e) {
-  std::cerr << "sawyer: " << e.message() << "\n";
-  return 1;
-}
 
 // Options the batch sets itself for each log; given after "--" they would clash.
 bool batch_owned(const std::string& a) {
@@ -148,7 +144,7 @@ int run(const BatchCli& c) {
   // batch once, not fail every log (and leave no batch folder behind).
   fs::path db;
   if (!c.no_register) {
-    Result<fs::path> db_path = register_path(c.db);
+    Result<fs::path> db_path = register_path(c.db, "--db", "--no-register");
     if (!db_path) return fail(db_path.error());
     db = fs::absolute(db_path.value());
     Result<LogRegister> reg = LogRegister::open(db);
@@ -183,8 +179,10 @@ int run(const BatchCli& c) {
   po.timeout_s = c.timeout_s;
   po.on_finished = [](const JobResult& r, int done, int total) {
     std::cout << "[" << done << "/" << total << "] " << r.id << " "
-              << (r.ok() ? "ok" : r.warned() ? "ok, QA warnings" : "FAILED") << " "
-              << seconds_text(r.seconds) << " s";
+              << (r.ok()       ? "ok"
+                  : r.warned() ? "ok, QA warnings"
+                               : "FAILED")
+              << " " << seconds_text(r.seconds) << " s";
     if (!r.completed()) std::cout << ": " << r.error;
     std::cout << "\n" << std::flush;
   };
@@ -220,14 +218,17 @@ int run(const BatchCli& c) {
       }
     }
     csv += csv_cell(r.id) + "," + csv_cell(rows[i]->ct_path.string()) + "," +
-           (r.ok() ? "ok" : r.warned() ? "qa_warnings" : "failed") + "," + std::to_string(r.exit_code) + "," +
-           seconds_text(r.seconds) + "," + value + "," + csv_cell(r.error) + "\n";
+           (r.ok()       ? "ok"
+            : r.warned() ? "qa_warnings"
+                         : "failed") +
+           "," + std::to_string(r.exit_code) + "," + seconds_text(r.seconds) + "," + value + "," +
+           csv_cell(r.error) + "\n";
   }
   const fs::path csv_path = out_dir / ("batch_" + std::to_string(shard.value().index) + ".csv");
   if (Status s = write_text_file_atomic(csv_path, csv); !s) return fail(s.error());
   std::cout << "batch: " << rows.size() - static_cast<size_t>(failed) << " ok (" << warned
-            << " with QA warnings), " << failed << " failed of " << rows.size() << " in " << seconds_text(total_s) << " s; "
-            << csv_path.string() << "\n";
+            << " with QA warnings), " << failed << " failed of " << rows.size() << " in "
+            << seconds_text(total_s) << " s; " << csv_path.string() << "\n";
   return failed ? 2 : 0;
 }
 

@@ -2,6 +2,7 @@
 // error), filters in SQL and prints a table, CSV or JSON on stdout. With --merge it copies other
 // registers into --db first.
 #include "cmd_logs.h"
+#include "cli_error.h"
 
 #include <nlohmann/json.hpp>
 
@@ -31,11 +32,6 @@ struct LogsCli {
   bool csv = false, json = false;
   std::vector<std::string> merge;
 };
-
-int fail(const Error& e) {
-  std::cerr << "sawyer: " << e.message() << "\n";
-  return 1;
-}
 
 // --id takes shell-style wildcards (* and ?); without any it matches anywhere in the id.
 std::string id_like(const std::string& pattern) {
@@ -161,7 +157,7 @@ void print_csv(const std::vector<LogRecord>& rows) {
 }
 
 int run(const LogsCli& c) {
-  Result<fs::path> db_path = register_path(c.db);
+  Result<fs::path> db_path = register_path(c.db, "--db", "");
   if (!db_path) return fail(db_path.error());
   const fs::path db = db_path.value();
   if (!c.merge.empty()) {

@@ -1,6 +1,7 @@
 // `sawyer phantom`: parses the options into ct::PhantomOptions, builds the phantom, writes the
 // slice folder with its truth/ and reports progress (stderr) and speed (stdout).
 #include "cmd_phantom.h"
+#include "cli_error.h"
 
 #include <chrono>
 #include <cstdint>
@@ -10,9 +11,9 @@
 #include <optional>
 #include <string>
 
-#include "log_source.h"
 #include "sawyer/core/output_guard.h"
 #include "sawyer/ct/phantom.h"
+#include "sawyer/maps/open_log.h"
 
 namespace sawyer::app {
 
@@ -25,11 +26,6 @@ struct PhantomCli {
   bool no_bed = false;
   std::string moisture = "green";
 };
-
-int fail(const Error& e) {
-  std::cerr << "sawyer: " << e.message() << "\n";
-  return 1;
-}
 
 int run(const PhantomCli& c) {
   Result<ct::Format> format = ct::parse_phantom_format(c.format);
@@ -53,7 +49,7 @@ int run(const PhantomCli& c) {
   Result<OutputLock> lock =
       OutputLock::acquire({c.output, OutputKind::kPhantomFolder, {c.input}, "-o"});
   if (!lock) return fail(lock.error());
-  Result<LogModel> log = load_log(c.input);
+  Result<LogModel> log = maps::open_log(c.input);
   if (!log) return fail(log.error());
   auto ph = ct::Phantom::create(log.value(), o);
   if (!ph) return fail(ph.error().with_context(c.input));

@@ -1,6 +1,7 @@
 // `sawyer render`: parses the options, loads the log, renders headless (EGL), writes the image
 // atomically (nothing is left under the output name on failure).
 #include "cmd_render.h"
+#include "cli_error.h"
 
 #include <chrono>
 #include <cmath>
@@ -12,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "log_source.h"
 #include "sawyer/core/output_guard.h"
+#include "sawyer/maps/open_log.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/render/gl_context.h"
 #include "sawyer/render/views.h"
@@ -35,11 +36,6 @@ struct RenderCli {
   bool view = false, stretch = false, no_surface = false, no_index = false, field = false,
        no_lighting = false, quiet = false, scanner_frame = false;
 };
-
-int fail(const Error& e) {
-  std::cerr << "sawyer: " << e.message() << "\n";
-  return 1;
-}
 
 Result<ImageSize> parse_size(const std::string& s) {
   ImageSize out;
@@ -160,7 +156,7 @@ int run(const RenderCli& c) {
 
   std::error_code ec;
   if (!fs::exists(c.input, ec)) return fail(Error(c.input, "no such file or folder"));
-  Result<LogModel> log = load_log(c.input);
+  Result<LogModel> log = maps::open_log(c.input);
   if (!log) return fail(log.error());
   const LogModel& model = log.value();
   if (c.section_z && (*c.section_z < model.stem.z_begin() || *c.section_z > model.stem.z_end()))
@@ -171,10 +167,9 @@ int run(const RenderCli& c) {
   // A board that misses the log would render as an empty image: refuse it instead.
   for (const Board& b : boards)
     if (b.z1 <= model.stem.z_begin() || b.z0 >= model.stem.z_end())
-      return fail(Error("--board", "z " + mm(b.z0) + " to " + mm(b.z1) +
-                                       " mm misses the log, which runs from " +
-                                       mm(model.stem.z_begin()) + " to " +
-                                       mm(model.stem.z_end()) + " mm"));
+      return fail(Error(
+          "--board", "z " + mm(b.z0) + " to " + mm(b.z1) + " mm misses the log, which runs from " +
+                         mm(model.stem.z_begin()) + " to " + mm(model.stem.z_end()) + " mm"));
 
   const auto t0 = std::chrono::steady_clock::now();
   Result<std::unique_ptr<GlContext>> ctx = create_headless_context();

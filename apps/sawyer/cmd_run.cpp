@@ -1,5 +1,6 @@
 // `sawyer run` (see cmd_run.h).
 #include "cmd_run.h"
+#include "cli_error.h"
 
 #include <nlohmann/json.hpp>
 
@@ -15,7 +16,6 @@
 
 #include "cmd_saw.h"
 #include "progress.h"
-#include "scan_job.h"
 #include "sawyer/core/file_util.h"
 #include "sawyer/core/output_guard.h"
 #include "sawyer/model/log_json.h"
@@ -24,7 +24,9 @@
 #include "sawyer/register/log_register.h"
 #include "sawyer/report/report.h"
 #include "sawyer/report/run_folder.h"
+#include "sawyer/sawing/sawing_file.h"
 #include "sawyer/sawing/sawing_job.h"
+#include "scan_job.h"
 
 namespace sawyer::app {
 
@@ -55,65 +57,43 @@ std::string utc_now() {
   return s;
 }
 
-struct Stage {
-  std::string name;
-  double seconds = 0;
-};
+using Stage = report::RunInfo::Stage;
 
-Json run_json(const RunCli& c, const ScanJob& scan, const std::string& source,
-              const std::string& checksum, const std::string& date,
-              const std::vector<Stage>& stages) {
-  Json j;
-  j["format"] = "sawyer-run/1";
-  j["log_id"] = scan.log().id;
-  j["species"] = scan.log().species;
-  j["scan_source"] = source;
-  j["scan_description"] = scan.source->description();
+report::RunRecord run_record(const RunCli& c, const ScanJob& scan, const std::string& source,
+                             const std::string& checksum, const std::string& date,
+                             const std::vector<Stage>& stages) {
+  report::RunRecord r;
+  report::RunInfo& in = r.info;
+  in.log_id = scan.log().id;
+  in.species = scan.log().species;
+  in.scan_source = source;
+  in.scan_description = scan.source->description();
   // Every note of the reader (resampled gaps, ignored files), and the resampling in one line.
-  Json notes = Json::array();
   if (std::string z = ct::resampling_summary(scan.source->geometry()); !z.empty())
-    notes.push_back(z);
-  for (const std::string& n : scan.source->notes()) notes.push_back(n);
-  j["scan_notes"] = notes;
+    in.scan_notes.push_back(z);
+  for (const std::string& n : scan.source->notes()) in.scan_notes.push_back(n);
   const ct::ZResampling& zr = scan.source->geometry().z_resampling;
-  j["z_resampling"] = {{"resampled", zr.resampled},
-                       {"source_slices", zr.source_slices},
-                       {"invented_slices", zr.invented_slices},
-                       {"gaps", zr.gaps},
-                       {"widest_gap_mm", zr.widest_gap_mm},
-                       {"widest_gap_z0_mm", zr.widest_gap_z0}};
-  // log.json's x, y are the scanner's; heights go back to its z through this (docs/formats.md).
-  if (const auto& f = scan.log().scanner_frame)
-    j["scanner_frame"] = {{"origin_mm", {f->origin_mm.x, f->origin_mm.y, f->origin_mm.z}},
-                          {"row_dir", {f->row_dir.x, f->row_dir.y, f->row_dir.z}},
-                          {"col_dir", {f->col_dir.x, f->col_dir.y, f->col_dir.z}},
-                          {"z0_mm", f->z0_mm},
-                          {"z_dir", f->z_dir}};
-  j["scan_checksum"] = checksum;
-  j["slices"] = scan.scan.stem.slices.size();
-  j["knots"] = scan.log().knots.size();
-  // The scan's QA verdict (as in log.json); when it fails, the chosen position rests on a
-  // model the scan itself does not trust, and says so.
-  if (const auto& qa = scan.log().qa) {
-    j["qa"] = Json::parse(qa_json_text(*qa));
-    j["position_trusted"] = qa->trusted;
-  }
-  j["date"] = date;
-  j["sawyer_version"] = SAWYER_VERSION;
-  j["options"] = {{"pattern", c.names.pattern},
-                  {"grading", c.names.grading},
-                  {"prices", c.names.prices},
-                  {"position", c.names.position}};
-  Json st = Json::array();
-  for (const Stage& s : stages) st.push_back({{"name", s.name}, {"seconds", s.seconds}});
-  j["stages"] = st;
-  return j;
+  r.z_resampling = {zr.resampled, zr.source_slices, zr.invented_slices,
+                    zr.gaps,      zr.widest_gap_mm, zr.widest_gap_z0};
+  r.scanner_frame = scan.log().scanner_frame;
+  in.scan_checksum = checksum;
+  r.slices = scan.scan.stem.slices.size();
+  r.knots = scan.log().knots.size();
+  r.qa = scan.log().qa;
+  in.date = date;
+  in.sawyer_version = SAWYER_VERSION;
+  in.pattern = c.names.pattern;
+  in.grading = c.names.grading;
+  in.prices = c.names.prices;
+  in.position = c.names.position;
+  in.stages = stages;
+  return r;
 }
 
-reg::LogRecord register_record(const LogModel& log, const LogSummary& s,
-                               const sawing::SawSetup& su, const sawing::SawingOutcome& out,
-                               const std::string& source, const std::string& checksum,
-                               const fs::path& out_dir, const std::string& date) {
+reg::LogRecord register_record(const LogModel& log, const LogSummary& s, const sawing::SawSetup& su,
+                               const sawing::SawingOutcome& out, const std::string& source,
+                               const std::string& checksum, const fs::path& out_dir,
+                               const std::string& date) {
   reg::LogRecord r;
   r.scan_source = source;
   r.scan_checksum = checksum;
@@ -134,8 +114,8 @@ reg::LogRecord register_record(const LogModel& log, const LogSummary& s,
   r.offset_y_mm = p.offset_y_mm;
   r.value = out.chosen_value().value;
   const double hd = out.opt.horns_down.value;
-  r.gain_over_horns_down = su.position ? (hd > 0 ? r.value / hd - 1 : 0.0)
-                                       : out.opt.gain_over_horns_down;
+  r.gain_over_horns_down =
+      su.position ? (hd > 0 ? r.value / hd - 1 : 0.0) : out.opt.gain_over_horns_down;
   r.currency = su.prices.currency;
   r.output_dir = out_dir.string();
   r.report_path = (out_dir / "report" / "report.pdf").string();
@@ -144,10 +124,6 @@ reg::LogRecord register_record(const LogModel& log, const LogSummary& s,
 }
 
 int run(const RunCli& c) {
-  auto fail = [](const Error& e) {
-    std::cerr << "sawyer: " << e.message() << "\n";
-    return 1;
-  };
   const auto t_all = Clock::now();
   const std::string date = utc_now();
   // Everything named on the command line is checked before the scan starts.
@@ -161,7 +137,7 @@ int run(const RunCli& c) {
   std::optional<reg::LogRegister> reg;
   fs::path db;
   if (!c.no_register) {
-    Result<fs::path> db_path = reg::register_path(c.db);
+    Result<fs::path> db_path = reg::register_path(c.db, "--db", "--no-register");
     if (!db_path) return fail(db_path.error());
     db = db_path.value();
     Result<reg::LogRegister> r = reg::LogRegister::open(db);
@@ -182,12 +158,15 @@ int run(const RunCli& c) {
   StageBar bar(c.quiet);
   std::vector<Stage> stages;
   auto t = Clock::now();
-  Result<ScanJob> scanned = scan_ct(c.scan, [&](const char* stage, int done, int total) {
-    if (std::string(stage) == "stem")
-      bar.update("scan", done, total, "slices");
-    else if (done == 0)
-      bar.update("scan", 1, 1, "slices; knots...");
-  }, std::move(opened.value()));
+  Result<ScanJob> scanned = scan_ct(
+      c.scan,
+      [&](const char* stage, int done, int total) {
+        if (std::string(stage) == "stem")
+          bar.update("scan", done, total, "slices");
+        else if (done == 0)
+          bar.update("scan", 1, 1, "slices; knots...");
+      },
+      std::move(opened.value()));
   if (!scanned) return fail(scanned.error());
   const ScanJob& scan = scanned.value();
   stages.push_back({"scan", since(t)});
@@ -201,8 +180,8 @@ int run(const RunCli& c) {
   }
 
   t = Clock::now();
-  Result<sawing::SawingOutcome> sawn =
-      saw_log_model(log, su, [&](int done, int total) { bar.update("saw", done, total, "positions"); });
+  Result<sawing::SawingOutcome> sawn = saw_log_model(
+      log, su, [&](int done, int total) { bar.update("saw", done, total, "positions"); });
   if (!sawn) return fail(sawn.error().with_context(log.id));
   const sawing::SawingOutcome& out = sawn.value();
   stages.push_back({"saw", since(t)});
@@ -215,9 +194,9 @@ int run(const RunCli& c) {
   // The decision first, for the operator at the saw: the files and the report follow.
   {
     const sawing::LogPosition& p = su.position ? *su.position : out.opt.best.pos;
-    std::printf("position: rot %.1f° x %+.1f y %+.1f mm, %.2f %s; saw set-up: %s\n",
-                p.rotation_deg, p.offset_x_mm, p.offset_y_mm, out.chosen_value().value,
-                su.prices.currency.c_str(), sawing::saw_setup_line(out.saw_log, p).c_str());
+    std::printf("position: rot %.1f° x %+.1f y %+.1f mm, %.2f %s; saw set-up: %s\n", p.rotation_deg,
+                p.offset_x_mm, p.offset_y_mm, out.chosen_value().value, su.prices.currency.c_str(),
+                sawing::saw_setup_line(out.saw_log, p).c_str());
     std::fflush(stdout);
   }
 
@@ -237,8 +216,8 @@ int run(const RunCli& c) {
       checksum = sum.value();
       stages.push_back({"checksum", since(t)});
     }
-    if (Status w = write_text_file_atomic(
-            tmp / "run.json", run_json(c, scan, source, checksum, date, stages).dump(1) + "\n");
+    if (Status w = report::write_run_file(run_record(c, scan, source, checksum, date, stages),
+                                          tmp / "run.json");
         !w)
       return w;
     // The maps and QA images are written beside the report (mostly single-threaded work on
@@ -255,8 +234,9 @@ int run(const RunCli& c) {
       Result<report::RunFolder> folder = report::load_run_folder(tmp);
       if (!folder) return folder.error();
       Result<report::ReportFiles> files = report::write_report(
-          folder.value(), tmp / "report", {},
-          [&](int done, int total, const std::string&) { bar.update("report", done, total, "steps"); });
+          folder.value(), tmp / "report", {}, [&](int done, int total, const std::string&) {
+            bar.update("report", done, total, "steps");
+          });
       if (!files) return files.error();
       report_files = files.value();
       report_seconds = since(t);
@@ -269,14 +249,14 @@ int run(const RunCli& c) {
     // run.json again with the times of the work done since (the report shows scan and saw).
     stages.push_back({"write", write_seconds});
     if (!c.no_report) stages.push_back({"report", report_seconds});
-    if (Status w = write_text_file_atomic(
-            tmp / "run.json", run_json(c, scan, source, checksum, date, stages).dump(1) + "\n");
+    if (Status w = report::write_run_file(run_record(c, scan, source, checksum, date, stages),
+                                          tmp / "run.json");
         !w)
       return w;
     // Last, so that a register that refuses the row leaves no output behind either.
     if (reg) {
-      if (Status w = reg->upsert(register_record(log, summary, su, out, source, checksum,
-                                                 out_dir, date));
+      if (Status w =
+              reg->upsert(register_record(log, summary, su, out, source, checksum, out_dir, date));
           !w)
         return w;
     }
@@ -287,17 +267,19 @@ int run(const RunCli& c) {
   // The one-screen summary.
   const std::string& cur = su.prices.currency;
   const sawing::LogPosition p = su.position ? *su.position : out.opt.best.pos;
-  std::printf("\nlog %s (%s): %.2f m, diameter butt %.0f / top %.0f / mean %.0f mm, %.3f m3, "
-              "taper %.1f mm/m, %d knots (%d with a dead part)\n",
-              log.id.c_str(), log.species.c_str(), summary.length_mm * 1e-3,
-              summary.butt_diameter_mm, summary.top_diameter_mm, summary.mean_diameter_mm,
-              summary.volume_m3, summary.taper_mm_per_m, summary.knot_count, summary.dead_knots);
+  std::printf(
+      "\nlog %s (%s): %.2f m, diameter butt %.0f / top %.0f / mean %.0f mm, %.3f m3, "
+      "taper %.1f mm/m, %d knots (%d with a dead part)\n",
+      log.id.c_str(), log.species.c_str(), summary.length_mm * 1e-3, summary.butt_diameter_mm,
+      summary.top_diameter_mm, summary.mean_diameter_mm, summary.volume_m3, summary.taper_mm_per_m,
+      summary.knot_count, summary.dead_knots);
   std::printf("pattern %s, grading %s: %s position rot %.1f° x %+.1f y %+.1f mm, value %.2f %s",
-              su.pattern.name.c_str(), su.rules.name.c_str(), su.position ? "given" : "best", p.rotation_deg,
-              p.offset_x_mm, p.offset_y_mm, out.chosen_value().value, cur.c_str());
+              su.pattern.name.c_str(), su.rules.name.c_str(), su.position ? "given" : "best",
+              p.rotation_deg, p.offset_x_mm, p.offset_y_mm, out.chosen_value().value, cur.c_str());
   const double hd = out.opt.horns_down.value;
   if (su.position)
-    std::printf(" (horns-down %.2f: %+.1f %%)\n", hd, hd > 0 ? 100 * (out.chosen_value().value / hd - 1) : 0.0);
+    std::printf(" (horns-down %.2f: %+.1f %%)\n", hd,
+                hd > 0 ? 100 * (out.chosen_value().value / hd - 1) : 0.0);
   else
     std::printf(" (expected %.2f; gain over horns-down %+.1f %%)\n", out.opt.best.smoothed,
                 100 * out.opt.gain_over_horns_down);
@@ -306,7 +288,8 @@ int run(const RunCli& c) {
   if (out.opt.model_draws > 0)
     std::printf("values averaged over the model and %d draws of its scan uncertainty (%s)\n",
                 out.opt.model_draws, out.opt.spread_note.c_str());
-  if (const std::string note = sawing::offset_edge_note(out.opt); !su.position && !note.empty())
+  if (const std::string note = with_flags(sawing::offset_edge_note(out.opt));
+      !su.position && !note.empty())
     std::printf("note: %s\n", note.c_str());
   if (std::string z = ct::resampling_summary(scan.source->geometry()); !z.empty())
     std::printf("note: %s\n", z.c_str());
@@ -373,8 +356,9 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
                   "expected value also over this many draws of the scanned knots' diameter and "
                   "r_dead within the scan's uncertainty (0: the model as it is; docs/sawing.md)")
       ->capture_default_str();
-  cmd->add_option("--db", c->db,
-                  "log register (SQLite; default: $SAWYER_DB or ~/.local/share/sawyer/logs.sqlite)");
+  cmd->add_option(
+      "--db", c->db,
+      "log register (SQLite; default: $SAWYER_DB or ~/.local/share/sawyer/logs.sqlite)");
   cmd->add_flag("--no-register", c->no_register, "do not add the log to the register");
   cmd->add_flag("--no-report", c->no_report, "scan and saw only");
   cmd->add_option("--threads", c->scan.threads, "worker threads, 1-256 (default: all cores)")

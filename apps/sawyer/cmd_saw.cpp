@@ -2,19 +2,21 @@
 // positioning optimiser, prints a one-screen summary and writes sawing.json atomically (nothing
 // is left under the output name on failure).
 #include "cmd_saw.h"
+#include "cli_error.h"
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <filesystem>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
 
-#include "log_source.h"
 #include "sawyer/core/file_util.h"
 #include "sawyer/core/output_guard.h"
+#include "sawyer/maps/open_log.h"
+#include "sawyer/sawing/sawing_file.h"
 #include "sawyer/sawing/sawing_job.h"
 
 namespace sawyer::app {
@@ -23,8 +25,8 @@ using namespace sawyer::sawing;
 
 void print_boards(const SawResult& sawn, const LogValue& v, const GradingRules& rules,
                   const std::string& currency, std::FILE* f) {
-  std::fprintf(f, "  %-10s %9s %6s %8s %-6s %9s  %s\n", "board", "size mm", "len m", "m3",
-               "grade", currency.c_str(), "limited by");
+  std::fprintf(f, "  %-10s %9s %6s %8s %-6s %9s  %s\n", "board", "size mm", "len m", "m3", "grade",
+               currency.c_str(), "limited by");
   for (size_t i = 0; i < sawn.boards.size(); ++i) {
     const Board& b = sawn.boards[i];
     char size[32];
@@ -48,17 +50,16 @@ void print_sawing_summary(const LogModel& log, const SawSetup& su, const SawingO
                log.id.c_str(), log.knots.size(), out.saw_log.usable_diameter_mm(),
                su.pattern.name.c_str(), r.symmetric ? " (point-symmetric: 180°)" : "",
                su.rules.name.c_str());
-  std::fprintf(
-      f,
-      "%d positions (%zu rotations × %zu × %zu offsets) on %d threads in %.2f s (%.0f/s); "
-      "σ %.1f° / %.1f mm\n",
-      r.positions, r.rotations_deg.size(), r.offsets_x_mm.size(), r.offsets_y_mm.size(),
-      r.threads, r.seconds, r.positions / std::max(r.seconds, 1e-9), su.options.sigma_rot_deg,
-      su.options.sigma_offset_mm);
+  std::fprintf(f,
+               "%d positions (%zu rotations × %zu × %zu offsets) on %d threads in %.2f s (%.0f/s); "
+               "σ %.1f° / %.1f mm\n",
+               r.positions, r.rotations_deg.size(), r.offsets_x_mm.size(), r.offsets_y_mm.size(),
+               r.threads, r.seconds, r.positions / std::max(r.seconds, 1e-9),
+               su.options.sigma_rot_deg, su.options.sigma_offset_mm);
   auto line = [&](const char* name, const RankedPosition& p) {
-    std::fprintf(f, "  %-11s rot %6.1f° x %+5.1f y %+5.1f mm: %8.2f %s (expected %8.2f)\n",
-                 name, p.pos.rotation_deg, p.pos.offset_x_mm, p.pos.offset_y_mm, p.value,
-                 cur.c_str(), p.smoothed);
+    std::fprintf(f, "  %-11s rot %6.1f° x %+5.1f y %+5.1f mm: %8.2f %s (expected %8.2f)\n", name,
+                 p.pos.rotation_deg, p.pos.offset_x_mm, p.pos.offset_y_mm, p.value, cur.c_str(),
+                 p.smoothed);
   };
   line("best", r.best);
   line("horns-down", r.horns_down);
@@ -74,7 +75,7 @@ void print_sawing_summary(const LogModel& log, const SawSetup& su, const SawingO
                "gain of best over horns-down %+.1f %%, over horns-up %+.1f %% (expected "
                "values)\n",
                100 * r.gain_over_horns_down, 100 * r.gain_over_horns_up);
-  if (const std::string note = offset_edge_note(r); !note.empty())
+  if (const std::string note = with_flags(offset_edge_note(r)); !note.empty())
     std::fprintf(f, "note: %s\n", note.c_str());
   std::fprintf(f, "boards at the best position:\n");
   print_boards(out.best_sawn, out.best_value, su.rules, cur, f);
@@ -113,13 +114,8 @@ std::vector<fs::path> saw_input_files(const sawing::SawNames& names) {
 
 namespace {
 
-int fail(const Error& e) {
-  std::cerr << "sawyer: " << e.message() << "\n";
-  return 1;
-}
-
 int run(const SawCli& c) {
-  Result<LogModel> model = load_log(c.input);
+  Result<LogModel> model = maps::open_log(c.input);
   if (!model) return fail(model.error());
   Result<SawSetup> setup = load_saw_setup(c.names, c.o);
   if (!setup) return fail(setup.error());

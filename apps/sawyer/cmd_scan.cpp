@@ -1,13 +1,14 @@
 #include "cmd_scan.h"
+#include "cli_error.h"
 
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <string>
 
-#include "scan_job.h"
 #include "sawyer/core/file_util.h"
 #include "sawyer/core/output_guard.h"
+#include "scan_job.h"
 
 namespace sawyer::app {
 
@@ -21,10 +22,6 @@ struct ScanCli {
 };
 
 int run_scan(const ScanCli& c) {
-  auto fail = [](const Error& e) {
-    std::cerr << "sawyer: " << e.message() << "\n";
-    return 1;
-  };
   // The input is opened first (a bad scan is named before anything else), then the output is
   // checked and locked, before the scan's real work.
   auto source = open_scan(c.job);
@@ -33,16 +30,19 @@ int run_scan(const ScanCli& c) {
       OutputLock::acquire({c.output, OutputKind::kScanFolder, {c.job.input}, "-o"});
   if (!lock) return fail(lock.error());
   int next = 1;
-  Result<ScanJob> job = scan_ct(c.job, [&](const char* stage, int done, int all) {
-    if (std::string(stage) == "knots") {
-      if (done == 0) std::cerr << "knots: detecting and fitting...\n";
-      return;
-    }
-    if (done * 10 >= next * all) {
-      std::cerr << "scan: " << next * 10 << "% (" << done << "/" << all << " slices)\n";
-      ++next;
-    }
-  }, std::move(source.value()));
+  Result<ScanJob> job = scan_ct(
+      c.job,
+      [&](const char* stage, int done, int all) {
+        if (std::string(stage) == "knots") {
+          if (done == 0) std::cerr << "knots: detecting and fitting...\n";
+          return;
+        }
+        if (done * 10 >= next * all) {
+          std::cerr << "scan: " << next * 10 << "% (" << done << "/" << all << " slices)\n";
+          ++next;
+        }
+      },
+      std::move(source.value()));
   if (!job) return fail(job.error());
   Status st = write_dir_atomic(
       c.output, [&](const fs::path& tmp) { return write_scan_files(job.value(), c.job, tmp); });
@@ -64,11 +64,14 @@ int run_scan(const ScanCli& c) {
 void add_scan_command(CLI::App& app, std::function<int()>& run) {
   auto c = std::make_shared<ScanCli>();
   CLI::App* cmd = app.add_subcommand(
-      "scan", "Analyse a CT scan of a log: pith, outer shape, heartwood and knots (log.json, maps, QA)");
+      "scan",
+      "Analyse a CT scan of a log: pith, outer shape, heartwood and knots (log.json, maps, QA)");
   cmd->add_option("input", c->job.input, "CT scan: DICOM/TIFF/PNG folder, .vti, .mha, .nrrd")
       ->required();
-  cmd->add_option("-o,--output", c->output, "folder to write (log.json, maps/, maps_float/, qa/)")->required();
-  cmd->add_option("--species", c->job.species, "species written into log.json")->capture_default_str();
+  cmd->add_option("-o,--output", c->output, "folder to write (log.json, maps/, maps_float/, qa/)")
+      ->required();
+  cmd->add_option("--species", c->job.species, "species written into log.json")
+      ->capture_default_str();
   cmd->add_option("--id", c->job.id, "log id (default: the scan's folder name)");
   cmd->add_option("--threads", c->job.threads, "worker threads, 1-256 (default: all cores)")
       ->check(CLI::Range(1, 256));

@@ -159,8 +159,8 @@ Status print_ct_info(const std::filesystem::path& path, const ct::OpenOptions& o
   row("source", src.description());
   row("slices", std::to_string(n) + " of " + std::to_string(g.width) + " x " +
                     std::to_string(g.height) + " pixels");
-  row("pixel spacing", fixed(g.spacing_x, 3) + " x " + fixed(g.spacing_y, 3) + " mm (field of view " +
-                           fixed(g.width * g.spacing_x, 1) + " x " +
+  row("pixel spacing", fixed(g.spacing_x, 3) + " x " + fixed(g.spacing_y, 3) +
+                           " mm (field of view " + fixed(g.width * g.spacing_x, 1) + " x " +
                            fixed(g.height * g.spacing_y, 1) + " mm)");
   row("slice spacing", fixed(g.slice_spacing(), 3) + " mm");
   row("z extent", fixed(g.z.front(), 1) + " .. " + fixed(g.z.back(), 1) + " mm (" +
@@ -171,22 +171,20 @@ Status print_ct_info(const std::filesystem::path& path, const ct::OpenOptions& o
   row("orientation", "row (" + fixed(o[0], 3) + ", " + fixed(o[1], 3) + ", " + fixed(o[2], 3) +
                          ") column (" + fixed(o[3], 3) + ", " + fixed(o[4], 3) + ", " +
                          fixed(o[5], 3) + ")");
-  row("stored", std::to_string(g.bits_stored) + "-bit " +
-                    (g.bits_stored == 32 ? "float"
-                                         : std::string(g.pixel_signed ? "signed" : "unsigned")) +
-                    ", HU = " + fixed(g.rescale_slope, 4) + " * value + " +
-                    fixed(g.rescale_intercept, 2));
+  row("stored",
+      std::to_string(g.bits_stored) + "-bit " +
+          (g.bits_stored == 32 ? "float" : std::string(g.pixel_signed ? "signed" : "unsigned")) +
+          ", HU = " + fixed(g.rescale_slope, 4) + " * value + " + fixed(g.rescale_intercept, 2));
   if (hist.count() > 0) {
-    row("HU range", fixed(hist.min(), 0) + " .. " + fixed(hist.max(), 0) + " (1st-99th percentile " +
-                        std::to_string(hist.quantile(0.01)) + " .. " +
+    row("HU range", fixed(hist.min(), 0) + " .. " + fixed(hist.max(), 0) +
+                        " (1st-99th percentile " + std::to_string(hist.quantile(0.01)) + " .. " +
                         std::to_string(hist.quantile(0.99)) + ")");
     row("above -500 HU", fixed(100.0 * hist.fraction_above(-500), 1) +
                              " % of voxels (wood, bark and anything else dense)");
   }
   if (const std::string z = ct::resampling_summary(g); !z.empty()) row("z grid", z);
   std::vector<std::string> problems = src.notes();
-  if (nonfinite > 0)
-    problems.push_back(std::to_string(nonfinite) + " voxels are NaN or infinite");
+  if (nonfinite > 0) problems.push_back(std::to_string(nonfinite) + " voxels are NaN or infinite");
   if (problems.empty()) {
     row("problems", "none");
   } else {

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <string>
 
+#include "cli_error.h"
 #include "cmd_phantom.h"
 #ifdef SAWYER_HAVE_RENDER
 #include "cmd_render.h"
@@ -18,29 +19,25 @@
 #include "cmd_saw.h"
 #include "cmd_scan.h"
 #include "ct_options.h"
-#include "log_source.h"
 #include "sawyer/core/interrupt.h"
 #include "sawyer/core/output_guard.h"
-#include "sawyer/model/log_json.h"
-#include "sawyer/model/log_summary.h"
 #include "sawyer/maps/float_maps.h"
+#include "sawyer/maps/open_log.h"
 #include "sawyer/maps/published_maps.h"
 #include "sawyer/model/log_generator.h"
+#include "sawyer/model/log_json.h"
+#include "sawyer/model/log_summary.h"
 
 namespace fs = std::filesystem;
 using namespace sawyer;
+using app::fail;
 
 namespace {
 
-int fail(const Error& e) {
-  std::cerr << "sawyer: " << e.message() << "\n";
-  return 1;
-}
-
 // A log model (log.json, maps, stem bank) gets its summary; anything else is read as a CT scan.
 int cmd_info(const std::string& input, const app::CtCliOptions& ct_options) {
-  if (app::detect_log_source(input)) {
-    Result<LogModel> log = app::load_log(input);
+  if (maps::detect_log_source(input)) {
+    Result<LogModel> log = maps::open_log(input);
     if (!log) return fail(log.error());
     print_summary(std::cout, log.value(), summarize(log.value()));
     return 0;
@@ -57,7 +54,7 @@ int cmd_info(const std::string& input, const app::CtCliOptions& ct_options) {
 }
 
 int cmd_convert(const std::string& input, const std::string& output, std::string format) {
-  Result<LogModel> log = app::load_log(input);
+  Result<LogModel> log = maps::open_log(input);
   if (!log) return fail(log.error());
   if (format.empty()) format = fs::path(output).extension() == ".json" ? "log" : "published";
   Result<OutputLock> lock = OutputLock::acquire(
@@ -130,8 +127,9 @@ int main(int argc, char** argv) {
       "convert", "Convert between log.json, the published map format and float maps");
   convert->add_option("input", conv_in, "log.json or a maps / stem-bank folder")->required();
   convert->add_option("-o,--output", conv_out, "output: a .json file or a maps folder")->required();
-  convert->add_option("--format", conv_format,
-                      "log | published | float (default: log for .json, else published)")
+  convert
+      ->add_option("--format", conv_format,
+                   "log | published | float (default: log for .json, else published)")
       ->check(CLI::IsMember({"log", "published", "float"}));
 
   std::string gen_species = "spruce", gen_out, gen_position = "drawn";

@@ -1,6 +1,6 @@
 // Triangle meshes for the viewer's 3D view that the wood renderer does not draw: the knots as
-// tubes around their axes (from the knot formula, DESIGN.md 4) and line outlines (a board's
-// box). Pure geometry in the log frame (mm); gl_layers.h draws them.
+// tubes around their axes (from the knot formula, docs/architecture.md 4) and line outlines (a
+// board's box). Pure geometry in the log frame (mm); gl_layers.h draws them.
 //
 //   MeshOptions o;
 //   Mesh tubes = knot_tubes(log, o);   // sound part brown, dead part near black

@@ -22,6 +22,8 @@
 #include <vector>
 
 #include "gl.h"
+#include "sawyer/core/option_names.h"
+#include "sawyer/maps/open_log.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/render/framebuffer.h"
 #include "sawyer/render/gl_context.h"
@@ -36,8 +38,13 @@ using namespace sawyer;
 
 namespace {
 
+// The libraries' option names (docs/style.md 6) as the viewer's flags.
+constexpr OptionName kFlags[] = {{"SawNames::position", "--position"},
+                                 {"Board::from_string", "--board"},
+                                 {"ImageSize", "--size"}};
+
 int fail(const std::string& message) {
-  std::cerr << "sawyer-view: " << message << "\n";
+  std::cerr << "sawyer-view: " << with_option_names(message, kFlags) << "\n";
   return 1;
 }
 
@@ -289,7 +296,7 @@ int main(int argc, char** argv) {
     return fail("--position and --optimise need --saw PATTERN");
 
   // The log first: a bad file is reported without needing a display.
-  Result<LogModel> log = read_log_json(cli.log_path);
+  Result<LogModel> log = maps::open_log(cli.log_path);
   if (!log) return fail(log.error().message());
 
   render::WindowOptions wo;

@@ -1,6 +1,6 @@
 // The viewer's camera control: a turntable orbit around a target point, in the log frame
-// (DESIGN.md 3: mm, z along the log, y up on screen). Pure arithmetic, no OpenGL: mouse drags,
-// wheel steps and keys change the state, camera() turns it into a sawyer::render::Camera.
+// (docs/architecture.md 3: mm, z along the log, y up on screen). Pure arithmetic, no OpenGL: mouse
+// drags, wheel steps and keys change the state, camera() turns it into a sawyer::render::Camera.
 //
 //   OrbitCamera orbit;
 //   orbit.frame_log(log, aspect);             // the whole log from the side, slightly above

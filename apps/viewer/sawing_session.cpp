@@ -8,7 +8,7 @@
 
 #include "sawyer/core/file_util.h"
 #include "sawyer/sawing/placement.h"
-#include "sawyer/sawing/sawing_json.h"
+#include "sawyer/sawing/sawing_file.h"
 #include "sawyer/sawing/setup.h"
 
 namespace sawyer::view {
@@ -16,7 +16,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace sawyer::sawing;
-using Json = nlohmann::ordered_json;
 
 }  // namespace
 
@@ -72,10 +71,9 @@ Result<std::unique_ptr<SawingSession>> SawingSession::create(const LogModel& log
   s->rules_ = std::move(rules).value();
   s->prices_ = std::move(prices).value();
   s->choice_ = choice;
-  s->horns_down_ =
-      value_of(saw_for_sale(*s->saw_log_, s->pattern_, {}, s->rules_, s->prices_), s->rules_,
-               s->prices_)
-          .value;
+  s->horns_down_ = value_of(saw_for_sale(*s->saw_log_, s->pattern_, {}, s->rules_, s->prices_),
+                            s->rules_, s->prices_)
+                       .value;
   s->set_position({});
   return s;
 }
@@ -91,9 +89,7 @@ double SawingSession::gain_over_horns_down() const {
 }
 
 // saw(): pattern (u, v) = Rot(φ)·(scanner − line_at(z)) − offset.
-double SawingSession::phi() const {
-  return pattern_rotation(*saw_log_, pos_);
-}
+double SawingSession::phi() const { return pattern_rotation(*saw_log_, pos_); }
 
 std::array<Vec2, 4> SawingSession::rect_in_scanner(double u, double v, double size_u, double size_v,
                                                    double z) const {
@@ -128,21 +124,17 @@ render::Board SawingSession::board_in_scanner(size_t i) const {
 }
 
 std::string SawingSession::to_json(const std::string& log_id) const {
-  const Json boards = boards_json(sawn_, value_, rules_, false);
-  Json j;
-  j["format"] = "sawyer-sawing/1";
-  j["log"] = log_id;
-  j["pattern"] = pattern_.name;
-  j["grading"] = rules_.name;
-  j["prices"] = prices_.name;
-  j["currency"] = prices_.currency;
-  j["horns_down"] = position_json({});
-  j["horns_down"]["value"] = horns_down_;
-  j["given_position"] = position_json(pos_);
-  j["given_position"]["value"] = value_.value;
-  j["given_position"]["gain_over_horns_down"] = gain_over_horns_down();
-  j["given_position"]["boards"] = boards;
-  return j.dump(1) + "\n";
+  SavedPosition p;
+  p.log_id = log_id;
+  p.pattern = &pattern_;
+  p.rules = &rules_;
+  p.prices = &prices_;
+  p.horns_down_value = horns_down_;
+  p.pos = pos_;
+  p.sawn = &sawn_;
+  p.value = &value_;
+  p.gain_over_horns_down = gain_over_horns_down();
+  return position_file_json(p).dump(1) + "\n";
 }
 
 Status SawingSession::save(const fs::path& path, const std::string& log_id) const {
@@ -150,25 +142,9 @@ Status SawingSession::save(const fs::path& path, const std::string& log_id) cons
 }
 
 Result<LogPosition> read_saw_position(const fs::path& path) {
-  Result<std::string> text = read_text_file(path);
-  if (!text) return text.error();
-  const Json j = Json::parse(text.value(), nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return Error(path.string(), "not a JSON object");
-  const char* key = j.contains("given_position") ? "given_position" : "best";
-  if (!j.contains(key) || !j[key].is_object())
-    return Error(path.string(), "no \"given_position\" or \"best\"");
-  LogPosition p;
-  const Json& g = j[key];
-  auto get = [&](const char* name, double* out) -> Status {
-    if (!g.contains(name) || !g[name].is_number())
-      return Error(path.string(), std::string(key) + "." + name + ": missing or not a number");
-    *out = g[name].get<double>();
-    return Status::Ok();
-  };
-  if (Status s = get("rotation_deg", &p.rotation_deg); !s) return s.error();
-  if (Status s = get("offset_x_mm", &p.offset_x_mm); !s) return s.error();
-  if (Status s = get("offset_y_mm", &p.offset_y_mm); !s) return s.error();
-  return p;
+  Result<SawingRecord> r = read_sawing_file(path);
+  if (!r) return r.error();
+  return r.value().chosen.pos;
 }
 
 }  // namespace sawyer::view

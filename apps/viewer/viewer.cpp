@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "sawing_panel.h"
+#include "sawyer/maps/open_log.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/render/framebuffer.h"
 #include "sawyer/render/gl_context.h"
@@ -150,7 +151,7 @@ Status Viewer::load(std::unique_ptr<LogModel> log, const fs::path& path) {
 }
 
 Status Viewer::open(const fs::path& path) {
-  Result<LogModel> log = read_log_json(path);
+  Result<LogModel> log = maps::open_log(path);
   Status st =
       log ? load(std::make_unique<LogModel>(std::move(log).value()), path) : Status(log.error());
   status_error_ = !st;

@@ -303,7 +303,8 @@ Result<std::unique_ptr<SliceSink>> create_dicom_writer(const fs::path& out,
 
   Result<StagingDir> staging = StagingDir::create(out);
   if (!staging) return staging.error();
-  return std::unique_ptr<SliceSink>(new DicomSeriesWriter(std::move(staging).value(), geometry, options));
+  return std::unique_ptr<SliceSink>(
+      new DicomSeriesWriter(std::move(staging).value(), geometry, options));
 }
 
 }  // namespace sawyer::ct::detail

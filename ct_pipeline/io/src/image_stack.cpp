@@ -1205,8 +1205,7 @@ Result<std::unique_ptr<SliceSource>> open_stack(const fs::path& path, const Open
   src->description_ = desc;
   // The sidecar checked its own keys; this holds the whole geometry (image size, field of view,
   // ImageJ spacing) to the limits.
-  if (Status st = check_geometry_limits(where, g); !st)
-    return st.error();
+  if (Status st = check_geometry_limits(where, g); !st) return st.error();
   return std::unique_ptr<SliceSource>(std::move(src));
 }
 

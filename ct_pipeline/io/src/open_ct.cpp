@@ -14,13 +14,20 @@ namespace fs = std::filesystem;
 
 const char* format_name(Format f) {
   switch (f) {
-    case Format::kDicom: return "DICOM series";
-    case Format::kTiffStack: return "TIFF stack";
-    case Format::kMultiPageTiff: return "multi-page TIFF";
-    case Format::kPngStack: return "PNG stack";
-    case Format::kVti: return "VTK image data (.vti)";
-    case Format::kMetaImage: return "MetaImage (.mha/.mhd)";
-    case Format::kNrrd: return "NRRD";
+    case Format::kDicom:
+      return "DICOM series";
+    case Format::kTiffStack:
+      return "TIFF stack";
+    case Format::kMultiPageTiff:
+      return "multi-page TIFF";
+    case Format::kPngStack:
+      return "PNG stack";
+    case Format::kVti:
+      return "VTK image data (.vti)";
+    case Format::kMetaImage:
+      return "MetaImage (.mha/.mhd)";
+    case Format::kNrrd:
+      return "NRRD";
   }
   return "unknown";
 }
@@ -92,8 +99,8 @@ Result<std::unique_ptr<SliceSource>> open_raw(const fs::path& path, const OpenOp
     std::string list;
     std::sort(volumes.begin(), volumes.end());
     for (const auto& v : volumes) list += (list.empty() ? "" : ", ") + v.filename().string();
-    return Error(path.string(), "holds " + std::to_string(volumes.size()) +
-                                    " volume files (" + list + "); give the one to read");
+    return Error(path.string(), "holds " + std::to_string(volumes.size()) + " volume files (" +
+                                    list + "); give the one to read");
   }
   return Error(path.string(), "no CT slices found among " + std::to_string(n_files) +
                                   " files (expected DICOM, TIFF, PNG, .vti, .mha/.mhd or .nrrd)");
@@ -118,8 +125,8 @@ Result<std::unique_ptr<SliceSource>> open_ct(const fs::path& path, const OpenOpt
 }
 
 Result<std::unique_ptr<SliceSink>> create_ct_writer(const fs::path& out,
-                                                     const VolumeGeometry& geometry,
-                                                     const WriteOptions& options) {
+                                                    const VolumeGeometry& geometry,
+                                                    const WriteOptions& options) {
   if (geometry.width <= 0 || geometry.height <= 0 || geometry.z.empty())
     return Error(out.string(), "nothing to write: empty geometry");
   if (!(geometry.spacing_x > 0) || !(geometry.spacing_y > 0))

@@ -95,8 +95,8 @@ Result<std::unique_ptr<SliceSource>> to_scanner_axes(std::unique_ptr<SliceSource
   const Vec3 row{o[0], o[1], o[2]}, col{o[3], o[4], o[5]};
   const int ra = axis_of(row), ca = axis_of(col), na = axis_of(g.slice_dir);
   if (ra < 0 || ca < 0 || ra == 2 || ca == 2 || ra == ca || na != 2) {
-    return Error(where, "slice orientation rows " + vec_text(row) + ", columns " +
-                            vec_text(col) + ", slices along " + vec_text(g.slice_dir) +
+    return Error(where, "slice orientation rows " + vec_text(row) + ", columns " + vec_text(col) +
+                            ", slices along " + vec_text(g.slice_dir) +
                             " is not axial: rows and columns must run along the scanner's x "
                             "and y axes and the slices along z (direction cosines within " +
                             tolerance_text() + "); Sawyer does not resample oblique scans");

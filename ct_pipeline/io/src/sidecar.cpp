@@ -51,8 +51,9 @@ Result<double> positive_number(const Json& j, const std::string& where, const st
   if (!v) return key_error(where, key, "must be a number in mm, got " + shown(j));
   if (!(*v > 0)) return key_error(where, key, "must be positive, got " + num(*v));
   if (*v < kMinSpacingMm || *v > kMaxSpacingMm)
-    return key_error(where, key, num(*v) + " mm is outside " + num(kMinSpacingMm) + "-" +
-                                     num(kMaxSpacingMm) + " mm");
+    return key_error(
+        where, key,
+        num(*v) + " mm is outside " + num(kMinSpacingMm) + "-" + num(kMaxSpacingMm) + " mm");
   return *v;
 }
 

@@ -170,8 +170,8 @@ struct Gap {
 // filling one gap a knot whorl fits in, makes up wood nobody scanned. Both need allow_gaps.
 // One invented slice alone is always accepted (a scanner drops one now and then, and in a short
 // section that one alone can be more than 10 %), as long as its gap is not too wide.
-Status check_invented(const std::string& where, const ZResampling& info, int count,
-                      double median, const OpenOptions& options) {
+Status check_invented(const std::string& where, const ZResampling& info, int count, double median,
+                      const OpenOptions& options) {
   if (options.allow_gaps || info.invented_slices == 0) return Status::Ok();
   const double fraction = static_cast<double>(info.invented_slices) / count;
   const bool too_many = info.invented_slices > 1 && fraction > options.max_invented_fraction;
@@ -184,8 +184,8 @@ Status check_invented(const std::string& where, const ZResampling& info, int cou
                           std::to_string(info.gaps) + " gap" + (info.gaps == 1 ? "" : "s") +
                           ", widest z=" + mm(info.widest_gap_z0, dec) + ".." +
                           mm(info.widest_gap_z0 + info.widest_gap_mm, dec) + " mm (" +
-                          mm(info.widest_gap_mm, dec) + " mm, limit " +
-                          mm(options.max_gap_mm, 0) + " mm); --allow-gaps resamples anyway");
+                          mm(info.widest_gap_mm, dec) + " mm, limit " + mm(options.max_gap_mm, 0) +
+                          " mm); --allow-gaps resamples anyway");
 }
 
 }  // namespace
@@ -336,8 +336,7 @@ Result<std::unique_ptr<SliceSource>> detail::make_uniform_z(std::unique_ptr<Slic
       info.widest_gap_z0 = gap.z0;
     }
   }
-  if (Status st = check_invented(where, info, count, median, options); !st)
-    return st.error();
+  if (Status st = check_invented(where, info, count, median, options); !st) return st.error();
   return std::unique_ptr<SliceSource>(
       new ResampledSource(std::move(source), median, count, std::move(notes), info));
 }

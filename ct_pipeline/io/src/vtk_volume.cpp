@@ -893,8 +893,8 @@ Status check_vti_numbers(const std::string& xml, const std::string& where) {
     if (text.empty()) continue;  // absent: VTK's default, as documented
     std::vector<double> v;
     if (!parse_numbers(text, v) || v.size() != want)
-      return Error(where, std::string(name) + " \"" + text + "\" is not " +
-                              std::to_string(want) + " finite numbers");
+      return Error(where, std::string(name) + " \"" + text + "\" is not " + std::to_string(want) +
+                              " finite numbers");
   }
   return Status::Ok();
 }

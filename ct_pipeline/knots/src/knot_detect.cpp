@@ -299,7 +299,8 @@ void to_contrast(Grid& g, int threads, int half_window) {
   double umax = g.r(g.nr - 1);
   for (int i = 0; i < g.ns; ++i)
     for (int k = 0; k < g.nw; ++k)
-      if (g.outer[static_cast<size_t>(i) * g.nw + k] > 0) umax = std::max(umax, g.u_of(i, g.nr - 1, k));
+      if (g.outer[static_cast<size_t>(i) * g.nw + k] > 0)
+        umax = std::max(umax, g.u_of(i, g.nr - 1, k));
   g.nb = static_cast<int>(std::ceil(umax / g.du)) + 2;
   const size_t per_slice = static_cast<size_t>(2) * g.nb;
   std::vector<float> level(static_cast<size_t>(g.ns) * per_slice, kNone);
@@ -433,7 +434,8 @@ ScanSignal scan_signal(const Grid& g) {
         w.clear();
         for (int m = b - half; m <= b + half; ++m)
           if (!std::isnan(l[m])) w.push_back(l[m]);
-        if (static_cast<int>(w.size()) > half) ring.push_back(l[b] - static_cast<float>(median_inplace(w)));
+        if (static_cast<int>(w.size()) > half)
+          ring.push_back(l[b] - static_cast<float>(median_inplace(w)));
       }
     }
   double ss = 0;

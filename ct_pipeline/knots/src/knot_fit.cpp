@@ -20,8 +20,8 @@
 namespace sawyer::ct {
 namespace {
 
-// Parameter bounds, wider than DESIGN.md 4's typical ranges so that they never bias a normal
-// knot, but they keep a short or contaminated trace from running off.
+// Parameter bounds, wider than docs/architecture.md 4's typical ranges so that they never bias a
+// normal knot, but they keep a short or contaminated trace from running off.
 constexpr double kMinA = -10.0, kMaxA = 25.0;  // mm/√mm
 constexpr double kMinB = -1.0, kMaxB = 2.5;    // mm/mm
 constexpr double kMaxTwist = 0.5;              // rad per ln(mm)

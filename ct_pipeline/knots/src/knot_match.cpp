@@ -18,8 +18,10 @@ double pair_r(const Knot& t, const Knot& f) { return std::min(eval_r(t), std::ma
 std::string describe(const char* what, const Knot& k) {
   const double r = eval_r(k);
   char line[200];
-  std::snprintf(line, sizeof line, "%s knot %d: z %.0f mm and azimuth %.0f deg at r %.0f mm, %.1f mm thick, r_end %.0f mm",
-                what, k.id, k.height_at(r), k.azimuth_at(r) * 180 / kPi, r, k.max_diameter(), k.r_end);
+  std::snprintf(
+      line, sizeof line,
+      "%s knot %d: z %.0f mm and azimuth %.0f deg at r %.0f mm, %.1f mm thick, r_end %.0f mm", what,
+      k.id, k.height_at(r), k.azimuth_at(r) * 180 / kPi, r, k.max_diameter(), k.r_end);
   return line;
 }
 
@@ -82,7 +84,8 @@ KnotMatch match_knots(const std::vector<Knot>& found, const std::vector<Knot>& t
                              : k.r_end;
     const double true_end = std::min(k.r_end, outer);
     m.r_end_mm.push_back(std::abs(f.r_end - true_end));
-    if (k.r_dead < true_end) m.r_dead_mm.push_back(std::abs(std::min(f.r_dead, f.r_end) - k.r_dead));
+    if (k.r_dead < true_end)
+      m.r_dead_mm.push_back(std::abs(std::min(f.r_dead, f.r_end) - k.r_dead));
     double pair2 = 0;
     int pair_n = 0;
     for (double q = 5.0; q <= std::min(f.r_end, true_end); q += 2.0) {
@@ -92,12 +95,12 @@ KnotMatch match_knots(const std::vector<Knot>& found, const std::vector<Knot>& t
       pair2 += e * e, ++pair_n;
     }
     char line[240];
-    std::snprintf(line, sizeof line,
-                  "true knot %d ~ found %d: d_dead %.1f ~ %.1f mm, exponent %.2f ~ %.2f, r_dead %.0f ~ "
-                  "%.0f mm, r_end %.0f ~ %.0f mm, diameter RMSE %.2f mm",
-                  k.id, f.id, k.diameter.d_dead, f.diameter.d_dead, k.diameter.exponent,
-                  f.diameter.exponent, k.r_dead, f.r_dead, true_end, f.r_end,
-                  pair_n ? std::sqrt(pair2 / pair_n) : 0.0);
+    std::snprintf(
+        line, sizeof line,
+        "true knot %d ~ found %d: d_dead %.1f ~ %.1f mm, exponent %.2f ~ %.2f, r_dead %.0f ~ "
+        "%.0f mm, r_end %.0f ~ %.0f mm, diameter RMSE %.2f mm",
+        k.id, f.id, k.diameter.d_dead, f.diameter.d_dead, k.diameter.exponent, f.diameter.exponent,
+        k.r_dead, f.r_dead, true_end, f.r_end, pair_n ? std::sqrt(pair2 / pair_n) : 0.0);
     m.pairs.push_back(line);
   }
   for (size_t f = 0; f < found.size(); ++f)

@@ -18,10 +18,14 @@ void LogVolume::keep(int i, const Slice& slice, Vec2 centre, double reach_mm) {
   p = LogPlane{};
   if (slice.width <= 0 || slice.height <= 0 || !(reach_mm > 0)) return;
   const double sx = geometry_.spacing_x, sy = geometry_.spacing_y;
-  const int x0 = std::clamp(static_cast<int>(std::floor((centre.x - reach_mm) / sx)), 0, slice.width);
-  const int y0 = std::clamp(static_cast<int>(std::floor((centre.y - reach_mm) / sy)), 0, slice.height);
-  const int x1 = std::clamp(static_cast<int>(std::ceil((centre.x + reach_mm) / sx)) + 1, 0, slice.width);
-  const int y1 = std::clamp(static_cast<int>(std::ceil((centre.y + reach_mm) / sy)) + 1, 0, slice.height);
+  const int x0 =
+      std::clamp(static_cast<int>(std::floor((centre.x - reach_mm) / sx)), 0, slice.width);
+  const int y0 =
+      std::clamp(static_cast<int>(std::floor((centre.y - reach_mm) / sy)), 0, slice.height);
+  const int x1 =
+      std::clamp(static_cast<int>(std::ceil((centre.x + reach_mm) / sx)) + 1, 0, slice.width);
+  const int y1 =
+      std::clamp(static_cast<int>(std::ceil((centre.y + reach_mm) / sy)) + 1, 0, slice.height);
   if (x1 <= x0 || y1 <= y0) return;
   p.x0 = x0, p.y0 = y0, p.width = x1 - x0, p.height = y1 - y0;
   p.hu.resize(static_cast<size_t>(p.width) * p.height);

@@ -13,8 +13,8 @@ PhantomSource::PhantomSource(const Phantom& phantom, bool prerender) : phantom_(
 Status PhantomSource::read(int i, Slice& out) {
   const int n = static_cast<int>(phantom_.kept().size());
   if (i < 0 || i >= n)
-    return Error(description(), "slice " + std::to_string(i) + " out of range 0.." +
-                                    std::to_string(n - 1));
+    return Error(description(),
+                 "slice " + std::to_string(i) + " out of range 0.." + std::to_string(n - 1));
   out = slices_.empty() ? phantom_.render_slice(phantom_.kept()[static_cast<size_t>(i)])
                         : slices_[static_cast<size_t>(i)];
   out.index = i;

@@ -3,8 +3,8 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <numeric>
 #include <thread>
 
@@ -28,7 +28,8 @@ bool inner_piece_of(const Knot& k, const KnotTrace& trace, const Knot& q, double
   int n = 0;
   for (double r = r0; r <= k.r_end; r += 2.0, ++n) {
     const double dh = std::max(0.0, std::abs(k.height_at(r) - q.height_at(r)) - 0.5 * dz);
-    excess += std::hypot(dh, r * angle_diff(k.azimuth_at(r), q.azimuth_at(r))) - 0.5 * q.diameter_at(r);
+    excess +=
+        std::hypot(dh, r * angle_diff(k.azimuth_at(r), q.azimuth_at(r))) - 0.5 * q.diameter_at(r);
   }
   return n > 0 && excess / n < 0.5 * dz;
 }
@@ -40,8 +41,8 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
   const auto t0 = clock::now();
   KnotScan out;
   if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");
-  int threads = options.threads > 0 ? options.threads
-                                    : static_cast<int>(std::thread::hardware_concurrency());
+  int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, 16);
   KnotDetectOptions detect = options.detect;
   if (detect.threads <= 0) detect.threads = threads;
@@ -54,7 +55,8 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
   std::vector<Result<KnotFitReport>> fits(traces.size(), Error("not fitted"));
   std::atomic<size_t> next{0};
   auto work = [&] {
-    for (size_t i = next++; i < traces.size(); i = next++) fits[i] = fit_knot(traces[i], options.fit);
+    for (size_t i = next++; i < traces.size(); i = next++)
+      fits[i] = fit_knot(traces[i], options.fit);
   };
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);
@@ -113,9 +115,8 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
     unique.push_back(i);
   }
   kept = std::move(unique);
-  std::sort(kept.begin(), kept.end(), [&](size_t a, size_t b) {
-    return fits[a].value().knot.z0 < fits[b].value().knot.z0;
-  });
+  std::sort(kept.begin(), kept.end(),
+            [&](size_t a, size_t b) { return fits[a].value().knot.z0 < fits[b].value().knot.z0; });
   int id = 1;
   for (size_t i : kept) {
     KnotFitReport f = fits[i].value();

@@ -30,15 +30,15 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
     out.knots = std::move(knots.value());
     if (progress) progress("knots", 1, 1);
   }
-  out.qa = assess_scan(out.stem, options.find_knots ? &out.knots : nullptr, src.geometry(),
-                       options.qa);
+  out.qa =
+      assess_scan(out.stem, options.find_knots ? &out.knots : nullptr, src.geometry(), options.qa);
 
   LogModel& log = out.log;
   log.id = options.id;
   log.species = options.species;
-  log.source = "sawyer scan of " + (options.source_name.empty() ? std::string("scan")
-                                                                : options.source_name) +
-               " (" + src.description() + ")";
+  log.source = "sawyer scan of " +
+               (options.source_name.empty() ? std::string("scan") : options.source_name) + " (" +
+               src.description() + ")";
   log.stem = out.stem.stem;
   log.knots = out.knots.knots;
   log.qa = out.qa.verdict;

@@ -102,14 +102,14 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
   ScanQaDetail d;
   const size_t n = scan.slices.size();
   d.slices.resize(n);
-  const double dz = g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1)
-                                        : 1.0;
+  const double dz =
+      g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1) : 1.0;
 
   // ---- per slice ----
   // Scan class (issue 20's targets): fine scans resolve rings where they are wide enough; coarse
   // industrial ones do not, and their pith comes from the log's shape.
-  d.coarse = !(g.spacing_x <= o.fine_pixel_mm && g.spacing_y <= o.fine_pixel_mm &&
-               dz < o.coarse_slice_mm);
+  d.coarse =
+      !(g.spacing_x <= o.fine_pixel_mm && g.spacing_y <= o.fine_pixel_mm && dz < o.coarse_slice_mm);
   const auto p95_limit = [&](bool resolved) {
     return d.coarse ? o.pith_coarse_p95_mm : resolved ? o.pith_fine_p95_mm : o.pith_narrow_p95_mm;
   };
@@ -160,16 +160,17 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       q.pith_why = "rings weak, off the track";
     } else if (r.rings_resolved && r.whorl_used &&
                (r.pith_whorl - r.pith).norm() >
-                   o.pith_whorl_disagree_mm + 2.0 * std::hypot(r.whorl_error_mm, q.expected_error_mm)) {
+                   o.pith_whorl_disagree_mm +
+                       2.0 * std::hypot(r.whorl_error_mm, q.expected_error_mm)) {
       // The knots of a whorl meet elsewhere: the rings may be locked one ring off or onto a
       // pattern that is not the pith's.
       q.pith_suspect = true;
       q.pith_why = "rings and knot whorls disagree";
     } else if (q.expected_error_mm > p95_limit(r.rings_resolved)) {
       q.pith_suspect = true;
-      q.pith_why = r.rings_resolved                    ? "rings faint"
+      q.pith_why = r.rings_resolved                ? "rings faint"
                    : r.pith_cue == PithCue::whorls ? "rings unresolved, pith from the knot whorls"
-                                                     : "rings unresolved, pith from the log's shape";
+                                                   : "rings unresolved, pith from the log's shape";
     }
     pith_suspects += q.pith_suspect;
     // Outline.
@@ -237,8 +238,10 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
     } else if (!L.valid) {
       st.ok = false;
       st.confidence = 0.2;
-      const std::string w = "no clear air and wood levels in the scan's histogram: it does not "
-                            "look like a log in air" + (L.notes.empty() ? std::string() : " (" + L.notes + ")");
+      const std::string w =
+          "no clear air and wood levels in the scan's histogram: it does not "
+          "look like a log in air" +
+          (L.notes.empty() ? std::string() : " (" + L.notes + ")");
       st.notes.push_back(w);
       warnings.push_back(w);
     } else {
@@ -247,16 +250,18 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       if (std::abs(L.shift_hu) >= o.levels_shift_note_hu) {
         std::snprintf(line, sizeof line,
                       "HU appear shifted by about %+.0f (air reads %.0f): thresholds were set from "
-                      "the scan's own levels", L.shift_hu, L.air_hu);
+                      "the scan's own levels",
+                      L.shift_hu, L.air_hu);
         st.notes.push_back(line);
         warnings.push_back(line);
       }
       if (L.dried) {
-        std::snprintf(line, sizeof line, "the wood reads about %.0f HU with no wet sapwood: a dried log",
-                      L.wood_hu);
+        std::snprintf(line, sizeof line,
+                      "the wood reads about %.0f HU with no wet sapwood: a dried log", L.wood_hu);
         st.notes.push_back(line);
       }
-      if (L.air_clipped) st.notes.push_back("air is clipped at the data's floor: a windowed export");
+      if (L.air_clipped)
+        st.notes.push_back("air is clipped at the data's floor: a windowed export");
       if (!L.notes.empty()) st.notes.push_back(L.notes);
     }
     v.stages.push_back(std::move(st));
@@ -278,16 +283,17 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
     d.pith_expected_median_mm = median_of(expected);
     if (!expected.empty()) {
       std::sort(expected.begin(), expected.end());
-      d.pith_expected_p95_mm = expected[std::min(expected.size() - 1,
-                                                 static_cast<size_t>(0.95 * expected.size()))];
+      d.pith_expected_p95_mm =
+          expected[std::min(expected.size() - 1, static_cast<size_t>(0.95 * expected.size()))];
     }
     const bool mostly_resolved = 2 * resolved >= measured;
-    d.pith_limit_median_mm = d.coarse           ? o.pith_coarse_median_mm
+    d.pith_limit_median_mm = d.coarse          ? o.pith_coarse_median_mm
                              : mostly_resolved ? o.pith_fine_median_mm
                                                : o.pith_narrow_median_mm;
     d.pith_limit_p95_mm = p95_limit(mostly_resolved);
     const auto runs = runs_of(d.slices, [](const QaSlice& q) { return q.pith_suspect; });
-    for (const Run& r : runs) d.pith_longest_run_mm = std::max(d.pith_longest_run_mm, r.z1 - r.z0 + dz);
+    for (const Run& r : runs)
+      d.pith_longest_run_mm = std::max(d.pith_longest_run_mm, r.z1 - r.z0 + dz);
     char line[256];
     std::snprintf(line, sizeof line,
                   "%d of %d slices suspect (%s); median ring alignment %.2f; longest suspect run "
@@ -299,9 +305,8 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                   "%s scan; rings resolved on %s of the slices, knot whorls met on %d; expected "
                   "pith error median %.2f mm, 95th percentile %.2f mm (limits %.1f and %.1f mm)",
                   d.coarse ? "coarse" : "fine", pct(d.rings_resolved_share).c_str(),
-                  scan.pith_summary.whorl_slices,
-                  d.pith_expected_median_mm, d.pith_expected_p95_mm, d.pith_limit_median_mm,
-                  d.pith_limit_p95_mm);
+                  scan.pith_summary.whorl_slices, d.pith_expected_median_mm, d.pith_expected_p95_mm,
+                  d.pith_limit_median_mm, d.pith_limit_p95_mm);
     st.notes.push_back(line);
     // Where, and why (the most common reason in each run); the three longest runs.
     std::vector<Run> sorted = runs;
@@ -312,8 +317,8 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       if (r.count < 2) continue;
       std::string why;
       int best = 0;
-      for (const char* reason : {"near the bark", "outside the heartwood", "rings weak, off the track",
-                                 "rings and knot whorls disagree",
+      for (const char* reason : {"near the bark", "outside the heartwood",
+                                 "rings weak, off the track", "rings and knot whorls disagree",
                                  "rings faint", "rings unresolved, pith from the knot whorls",
                                  "rings unresolved, pith from the log's shape"}) {
         int c = 0;
@@ -323,7 +328,8 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       }
       st.notes.push_back("pith uncertain over " + z_span(r.z0, r.z1) + ": " + why);
     }
-    st.confidence = std::clamp(1.0 - d.pith_suspect_share / std::max(o.pith_max_suspect_share, 1e-6) * 0.5, 0.0, 1.0);
+    st.confidence = std::clamp(
+        1.0 - d.pith_suspect_share / std::max(o.pith_max_suspect_share, 1e-6) * 0.5, 0.0, 1.0);
     const bool expected_too_big = d.pith_expected_median_mm > d.pith_limit_median_mm ||
                                   d.pith_expected_p95_mm > d.pith_limit_p95_mm;
     if (measured > 0 && (d.pith_suspect_share > o.pith_max_suspect_share ||
@@ -352,10 +358,11 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
     for (const QaSlice& q : d.slices)
       if (q.measured) rough.push_back(q.roughness_mm), fill.push_back(q.filled_share);
     char line[256];
-    std::snprintf(line, sizeof line,
-                  "%d of %d slices suspect (%s); median roughness %.2f mm; median share filled in %s",
-                  outline_suspects, measured, pct(d.outline_suspect_share).c_str(),
-                  median_of(rough), pct(median_of(fill)).c_str());
+    std::snprintf(
+        line, sizeof line,
+        "%d of %d slices suspect (%s); median roughness %.2f mm; median share filled in %s",
+        outline_suspects, measured, pct(d.outline_suspect_share).c_str(), median_of(rough),
+        pct(median_of(fill)).c_str());
     st.notes.push_back(line);
     st.confidence = std::clamp(1.0 - d.outline_suspect_share, 0.0, 1.0);
     if (scan.outline_z_outliers > 0) {
@@ -369,15 +376,16 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       d.outline_weak_bark_share = static_cast<double>(weak_bark) / bark_seen;
       d.outline_bark_step_sigmas = median_of(bark_steps);
       d.outline_bark_step_share = median_of(bark_shares);
-      std::snprintf(line, sizeof line,
-                    "bark seen on %d of %d slices, lighter than the outer wood by %.1f noise sigmas "
-                    "and %.0f %% of the wood-air span (medians)",
-                    bark_seen, measured, d.outline_bark_step_sigmas,
-                    100 * d.outline_bark_step_share);
+      std::snprintf(
+          line, sizeof line,
+          "bark seen on %d of %d slices, lighter than the outer wood by %.1f noise sigmas "
+          "and %.0f %% of the wood-air span (medians)",
+          bark_seen, measured, d.outline_bark_step_sigmas, 100 * d.outline_bark_step_share);
       st.notes.push_back(line);
     }
     d.outline_at_edge_share = measured ? static_cast<double>(at_edge) / measured : 0.0;
-    if (measured > 0 && at_edge >= std::min(2, measured)) {  // one slice can be a log end's odd shape
+    if (measured > 0 &&
+        at_edge >= std::min(2, measured)) {  // one slice can be a log end's odd shape
       st.ok = false;
       const std::string w = "the log reaches the image's edge on " + std::to_string(at_edge) +
                             " of " + std::to_string(measured) +

@@ -40,8 +40,7 @@ cv::Mat qa_image(const Slice& s, const VolumeGeometry& g, const StemSliceRecord&
       const int k2 = (k + 1) % n;
       if (!valid[k] || !valid[k2]) continue;
       const double w1 = kTwoPi * k / n, w2 = kTwoPi * k2 / n;
-      cv::line(img,
-               to_px(r.pith.x + radius[k] * std::cos(w1), r.pith.y + radius[k] * std::sin(w1)),
+      cv::line(img, to_px(r.pith.x + radius[k] * std::cos(w1), r.pith.y + radius[k] * std::sin(w1)),
                to_px(r.pith.x + radius[k2] * std::cos(w2), r.pith.y + radius[k2] * std::sin(w2)),
                colour, 1, cv::LINE_AA);
     }
@@ -110,8 +109,8 @@ cv::Mat pith_plot(const StemScan& scan, const ScanQaDetail& qa) {
   }
   char text[96];
   std::snprintf(text, sizeof text, "z %.0f .. %.0f mm (shaded: pith suspect)", z0, z1);
-  cv::putText(img, text, {w / 2 - 60, h - 10}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
-              cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  cv::putText(img, text, {w / 2 - 60, h - 10}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0),
+              1, cv::LINE_AA);
   return img;
 }
 
@@ -134,7 +133,8 @@ cv::Mat unrolled_image(const LogVolume& vol, const Stem& stem, const std::vector
     const double z = z_first + row / scale;
     const auto it = std::lower_bound(zs.begin(), zs.end(), z);
     int i = static_cast<int>(it - zs.begin());
-    if (i >= n || (i > 0 && z - zs[static_cast<size_t>(i - 1)] < zs[static_cast<size_t>(i)] - z)) --i;
+    if (i >= n || (i > 0 && z - zs[static_cast<size_t>(i - 1)] < zs[static_cast<size_t>(i)] - z))
+      --i;
     const double zi = zs[static_cast<size_t>(i)];
     if (zi < stem.z_begin() || zi > stem.z_end()) continue;
     const Vec2 c = stem.pith_at(zi);

@@ -244,14 +244,12 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   for (int i = 0; i < n; ++i) {
     const StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
     if (!rec.measured || crops[static_cast<size_t>(i)].hu.empty()) continue;
-    const double heart = rec.heartwood.present
-                             ? median_radius(rec.heartwood.radius, rec.heartwood.valid)
-                             : 0.0;
+    const double heart =
+        rec.heartwood.present ? median_radius(rec.heartwood.radius, rec.heartwood.valid) : 0.0;
     const double reg = heart > 0 ? 0.9 * heart : 0.6 * radius[static_cast<size_t>(i)];
     region[static_cast<size_t>(i)] = reg;
-    streaks[static_cast<size_t>(i)] =
-        knot_streaks(crops[static_cast<size_t>(i)], g, shape[static_cast<size_t>(i)], reg, noise,
-                     options.whorl);
+    streaks[static_cast<size_t>(i)] = knot_streaks(
+        crops[static_cast<size_t>(i)], g, shape[static_cast<size_t>(i)], reg, noise, options.whorl);
     for (WhorlStreak& st : streaks[static_cast<size_t>(i)])
       st.centre_mm = st.centre_mm - shape[static_cast<size_t>(i)];
   }
@@ -339,9 +337,10 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   std::vector<double> spread;
   for (int i = 0; i < n; ++i)
     if (resolved[static_cast<size_t>(i)])
-      spread.push_back((track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)] - ecc).norm());
-  const double shape_error = ecc.norm() > 0 ? std::max(median(spread), g.spacing_x)
-                                                 : std::max(0.1 * r_log, g.spacing_x);
+      spread.push_back(
+          (track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)] - ecc).norm());
+  const double shape_error =
+      ecc.norm() > 0 ? std::max(median(spread), g.spacing_x) : std::max(0.1 * r_log, g.spacing_x);
   std::vector<PithResult> fused(static_cast<size_t>(n));
   std::vector<double> errors, signals;
   int shape_slices = 0, whorl_slices = 0, resolved_slices = 0, run_from = -1, best_from = -1,
@@ -350,7 +349,8 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     const bool use_shape = i < n && !resolved[static_cast<size_t>(i)];
     if (use_shape && run_from < 0) run_from = i;
     if (!use_shape && run_from >= 0) {
-      if (best_from < 0 || i - 1 - run_from > best_to - best_from) best_from = run_from, best_to = i - 1;
+      if (best_from < 0 || i - 1 - run_from > best_to - best_from)
+        best_from = run_from, best_to = i - 1;
       run_from = -1;
     }
     if (i == n) break;
@@ -391,12 +391,12 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   }
   if (shape_slices + whorl_slices > 0) {
     // Both cues in one scan: one smooth track through them (the shape cue's slices weigh less).
-    const std::vector<Vec2> t = resolved_slices > 0 ? smooth_pith_track(z, fused, options.track)
-                                                    : std::vector<Vec2>{};
+    const std::vector<Vec2> t =
+        resolved_slices > 0 ? smooth_pith_track(z, fused, options.track) : std::vector<Vec2>{};
     for (int i = 0; i < n; ++i) {
       if (!resolved[static_cast<size_t>(i)] || t.empty())
-        track[static_cast<size_t>(i)] = t.empty() ? fused[static_cast<size_t>(i)].pith_mm
-                                                  : t[static_cast<size_t>(i)];
+        track[static_cast<size_t>(i)] =
+            t.empty() ? fused[static_cast<size_t>(i)].pith_mm : t[static_cast<size_t>(i)];
     }
   }
   sum.rings_resolved_share = n ? static_cast<double>(resolved_slices) / n : 0.0;
@@ -405,9 +405,11 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   sum.whorl_slices = static_cast<int>(kz.size());
   sum.ring_signal = median(signals);
   sum.median_expected_error_mm = median(errors);
-  sum.max_expected_error_mm = errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end());
+  sum.max_expected_error_mm =
+      errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end());
   if (best_from >= 0)
-    sum.uncertain_from_z = z[static_cast<size_t>(best_from)], sum.uncertain_to_z = z[static_cast<size_t>(best_to)];
+    sum.uncertain_from_z = z[static_cast<size_t>(best_from)],
+    sum.uncertain_to_z = z[static_cast<size_t>(best_to)];
 }
 
 }  // namespace
@@ -576,8 +578,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   scan.pith_options = options.pith;
   scan.contour_options = options.contour;
   scan.heartwood_options = options.heartwood;
-  int threads = options.threads > 0 ? options.threads
-                                    : static_cast<int>(std::thread::hardware_concurrency());
+  int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, 16);
   scan.threads = threads;
 
@@ -609,7 +611,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
             double rmax = 0;
             for (size_t k = 0; k < rec.contour.radius.size(); ++k)
               if (rec.contour.valid[k]) rmax = std::max(rmax, rec.contour.radius[k]);
-            if (rmax > 0) options.volume->keep(job.index, job.slice, job.pith, rmax + options.volume_margin_mm);
+            if (rmax > 0)
+              options.volume->keep(job.index, job.slice, job.pith, rmax + options.volume_margin_mm);
           }
         }
         pool.put(std::move(job.slice));
@@ -697,7 +700,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
     for (const PithResult& q : r) scan.pith_refinements += q.found;
     if (pass > 0)  // slices not refined again keep their last answer
       for (int i = 0; i < n; ++i)
-        if (!which[static_cast<size_t>(i)]) r[static_cast<size_t>(i)] = refined[static_cast<size_t>(i)];
+        if (!which[static_cast<size_t>(i)])
+          r[static_cast<size_t>(i)] = refined[static_cast<size_t>(i)];
     // Refined piths farther than max_correction_mm from the first track are not believed (a
     // refinement that walked off along the alignments one ring off, pass after pass).
     for (int i = 0; i < n; ++i)
@@ -712,8 +716,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
     std::fill(which.begin(), which.end(), false);
     bool again = false;
     for (int i = 0; i < n; ++i) {
-      const bool moved =
-          (t2[static_cast<size_t>(i)] - track[static_cast<size_t>(i)]).norm() > options.converged_mm;
+      const bool moved = (t2[static_cast<size_t>(i)] - track[static_cast<size_t>(i)]).norm() >
+                         options.converged_mm;
       if (moved)
         for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j)
           which[static_cast<size_t>(j)] = true;
@@ -728,7 +732,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   fuse_pith_cues(scan, z, refined, track, crops, options, g,
                  [&](const std::vector<Vec2>& centres, const std::vector<bool>& marked) {
                    PithRefineOptions wide = ro;
-                   wide.search_radius_mm = options.first_search_mm;  // as the first pass: a fair comparison
+                   wide.search_radius_mm =
+                       options.first_search_mm;  // as the first pass: a fair comparison
                    const std::vector<std::vector<double>> outlines = outlines_around(centres);
                    std::vector<PithResult> r = refine_pith_track(crops, z, centres, g, options.pith,
                                                                  wide, &outlines, &marked);

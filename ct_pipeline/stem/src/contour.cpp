@@ -300,7 +300,8 @@ double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
                   const ContourOptions& o, double air_edge, int* rays) {
   const int air_stop = static_cast<int>(std::ceil(kAirStopMm / h));
   const int hint_back = static_cast<int>(std::ceil(2 * kHintMm / h));
-  const double near = std::max(kBarkNearMm, h), far = near + std::max(kBarkFarMm - kBarkNearMm, 1.5 * h);
+  const double near = std::max(kBarkNearMm, h),
+               far = near + std::max(kBarkFarMm - kBarkNearMm, 1.5 * h);
   std::vector<float> prof, win, per_ray;
   int hint = 0;
   for (int k = 0; k < o.n_angles; k += kBarkStride) {
@@ -435,7 +436,8 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
   // coarse crossing rc, at kFineStepMm steps.
   auto subpixel = [&](double c, double s, double rc, double in_level) {
     const double out_v = std::max<double>(
-        options.air_hu, img.at(pith_mm.x + (rc + kOutsideMm) * c, pith_mm.y + (rc + kOutsideMm) * s));
+        options.air_hu,
+        img.at(pith_mm.x + (rc + kOutsideMm) * c, pith_mm.y + (rc + kOutsideMm) * s));
     const double level = 0.5 * (in_level + out_v);
     const double r0 = rc - kFineHalfMm;
     for (int q = 0; q < fine_n; ++q) {

@@ -39,7 +39,7 @@
 namespace sawyer::ct {
 namespace {
 
-constexpr int kCoarse = 4;            // block size of the extent mask
+constexpr int kCoarse = 4;  // block size of the extent mask
 constexpr double kRefineRadiusMm = 12.0;
 // Ring-profile refinement (refine_pith_concentric): rings between kRingMinMm and kRingMaxMm from
 // the centre, binned every kRingBinMm (well under a ring width), the profile's running mean over
@@ -121,7 +121,8 @@ void ring_bins(const RingPixels& p, size_t n, float ddx, float ddy, float lo, fl
   for (size_t i = 0; i < n; ++i) {
     const float ex = x[i] - ddx, ey = y[i] - ddy;
     // d * Rm / (R - delta . u) ~ d * k * (1 + delta . u / R)
-    const float r = std::sqrt(ex * ex + ey * ey) * k[i] * (1.f + (ddx * ux[i] + ddy * uy[i]) * inv_r[i]);
+    const float r =
+        std::sqrt(ex * ex + ey * ey) * k[i] * (1.f + (ddx * ux[i] + ddy * uy[i]) * inv_r[i]);
     bins[i] = static_cast<std::int32_t>(std::min(std::max((r - lo) * inv_bin, 0.f), top));
   }
 }
@@ -133,8 +134,10 @@ double azimuth_fast(double dx, double dy) {
   const double mx = std::max(ax, ay);
   if (mx == 0) return 0;
   const double t = std::min(ax, ay) / mx, t2 = t * t;
-  double a = t * (0.99997726 + t2 * (-0.33262347 + t2 * (0.19354346 + t2 * (-0.11643287 +
-             t2 * (0.05265332 + t2 * -0.01172120)))));
+  double a =
+      t * (0.99997726 +
+           t2 * (-0.33262347 +
+                 t2 * (0.19354346 + t2 * (-0.11643287 + t2 * (0.05265332 + t2 * -0.01172120)))));
   if (ay > ax) a = 0.5 * kPi - a;
   if (dx < 0) a = kPi - a;
   if (dy < 0) a = kTwoPi - a;
@@ -611,7 +614,7 @@ PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const Pith
 }
 
 std::vector<PithCandidate> candidates_without_prior(const Slice& s, const VolumeGeometry& g,
-                                                   const PithOptions& opt) {
+                                                    const PithOptions& opt) {
   std::vector<PithCandidate> out;
   const WoodLevels lv = wood_levels(s, opt);
   const Extent e = lv.found ? find_extent(s, g, lv) : Extent{};
@@ -634,10 +637,9 @@ std::vector<PithCandidate> candidates_without_prior(const Slice& s, const Volume
   const int stride = R > 60 ? 3 : 2;
   double sharp = 0;
   std::vector<Vec2> others;
-  const Vec2 coarse =
-      vote(s, g, lv, x0, y0, x1 - x0, y1 - y0, c - Vec2{0.6 * R, 0.6 * R}, c + Vec2{0.6 * R, 0.6 * R},
-           4, stride, kCoarseTensorRadius, votes, &sharp, &others, kAcquireCandidates - 1,
-           kAcquireApartMm);
+  const Vec2 coarse = vote(s, g, lv, x0, y0, x1 - x0, y1 - y0, c - Vec2{0.6 * R, 0.6 * R},
+                           c + Vec2{0.6 * R, 0.6 * R}, 4, stride, kCoarseTensorRadius, votes,
+                           &sharp, &others, kAcquireCandidates - 1, kAcquireApartMm);
   std::vector<Vec2> seeds{coarse};
   seeds.insert(seeds.end(), others.begin(), others.end());
   seeds.push_back(c);
@@ -736,7 +738,8 @@ WoodLevels wood_levels(const Slice& s, const PithOptions& options) {
   lv.wood_hu = wood;
   lv.sigma_hu = spread;
   const double step = lv.wood_hu - lv.air_hu;
-  lv.min_hu = std::isfinite(options.wood_min_hu) ? options.wood_min_hu : lv.wood_hu - kWindowBelow * step;
+  lv.min_hu =
+      std::isfinite(options.wood_min_hu) ? options.wood_min_hu : lv.wood_hu - kWindowBelow * step;
   lv.max_hu = std::isfinite(options.wood_max_hu)
                   ? options.wood_max_hu
                   : lv.wood_hu + std::max(kWindowAbove * step, kWindowAboveSigmas * lv.sigma_hu);
@@ -785,8 +788,9 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
         k = rmean / R, inv_r = 1.0 / R;
       }
       px.push_back({static_cast<float>(dx), static_cast<float>(dy), v,
-                    d > 0 ? static_cast<float>(dx / d) : 0.f, d > 0 ? static_cast<float>(dy / d) : 0.f,
-                    static_cast<float>(k), static_cast<float>(inv_r)});
+                    d > 0 ? static_cast<float>(dx / d) : 0.f,
+                    d > 0 ? static_cast<float>(dy / d) : 0.f, static_cast<float>(k),
+                    static_cast<float>(inv_r)});
       vals.push_back(v);
     }
   if (px.size() < 100) return res;
@@ -902,7 +906,8 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   if (screen) {
     const size_t keep = std::min<size_t>(kScreenKeep, screened.size());
     std::partial_sort(screened.begin(), screened.begin() + static_cast<std::ptrdiff_t>(keep),
-                      screened.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+                      screened.end(),
+                      [](const auto& a, const auto& b) { return a.first > b.first; });
     for (size_t q = 0; q < keep; ++q) {
       const double v = score(screened[q].second, nullptr);
       if (v > bs) bs = v, best = screened[q].second;
@@ -920,7 +925,8 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   };
   std::vector<Seen> seen;
   auto lattice_score = [&](Vec2 at) {
-    const int li = static_cast<int>(std::lround(at.x / h)), lj = static_cast<int>(std::lround(at.y / h));
+    const int li = static_cast<int>(std::lround(at.x / h)),
+              lj = static_cast<int>(std::lround(at.y / h));
     for (const Seen& q : seen)
       if (q.i == li && q.j == lj) return q.v;
     const double v = score(at, nullptr);

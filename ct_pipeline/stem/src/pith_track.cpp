@@ -39,7 +39,6 @@ constexpr int kMaxAcquisitions = 12;
 // a log end (or a gap in the log) and is not averaged in.
 constexpr double kMaxAreaChange = 0.25;
 
-
 std::int64_t count_wood(const Slice& s, const WoodLevels& lv) {
   std::int64_t n = 0;
   if (!lv.found) return n;
@@ -89,8 +88,10 @@ struct Level {
 Level wood_level(const float* img, int w, int h, double cx, double cy, double rx, double ry,
                  double wood_min_hu, double wood_max_hu) {
   std::vector<float> v;
-  const int x0 = std::max(0, static_cast<int>(cx - rx)), x1 = std::min(w - 1, static_cast<int>(cx + rx) + 1);
-  const int y0 = std::max(0, static_cast<int>(cy - ry)), y1 = std::min(h - 1, static_cast<int>(cy + ry) + 1);
+  const int x0 = std::max(0, static_cast<int>(cx - rx)),
+            x1 = std::min(w - 1, static_cast<int>(cx + rx) + 1);
+  const int y0 = std::max(0, static_cast<int>(cy - ry)),
+            y1 = std::min(h - 1, static_cast<int>(cy + ry) + 1);
   for (int y = y0; y <= y1; y += 2)
     for (int x = x0; x <= x1; x += 2) {
       const double dx = (x - cx) / rx, dy = (y - cy) / ry;
@@ -196,8 +197,10 @@ Slice PithTracker::averaged(int centre, const Vec2* box_centre, Vec2* origin) co
   const double b = options_.prior_radius_mm + kBoxBeyondSearchMm;
   const int x0 = std::max(0, static_cast<int>((box_centre->x - b) / geometry_.spacing_x));
   const int y0 = std::max(0, static_cast<int>((box_centre->y - b) / geometry_.spacing_y));
-  const int x1 = std::min(c.slice.width, static_cast<int>((box_centre->x + b) / geometry_.spacing_x) + 2);
-  const int y1 = std::min(c.slice.height, static_cast<int>((box_centre->y + b) / geometry_.spacing_y) + 2);
+  const int x1 =
+      std::min(c.slice.width, static_cast<int>((box_centre->x + b) / geometry_.spacing_x) + 2);
+  const int y1 =
+      std::min(c.slice.height, static_cast<int>((box_centre->y + b) / geometry_.spacing_y) + 2);
   Slice out;
   out.index = c.slice.index;
   out.z = c.slice.z;
@@ -208,7 +211,8 @@ Slice PithTracker::averaged(int centre, const Vec2* box_centre, Vec2* origin) co
   if (out.hu.empty()) return out;
   const int w = c.slice.width;
   const double pcx = box_centre->x / geometry_.spacing_x, pcy = box_centre->y / geometry_.spacing_y;
-  const double lrx = kLevelRadiusMm / geometry_.spacing_x, lry = kLevelRadiusMm / geometry_.spacing_y;
+  const double lrx = kLevelRadiusMm / geometry_.spacing_x,
+               lry = kLevelRadiusMm / geometry_.spacing_y;
   members.push_back(&c.slice);
   std::vector<Level> level;
   for (const Slice* m : members)
@@ -262,7 +266,8 @@ PithResult PithTracker::acquire(int centre) {
     if (d >= pushed_ || cands.size() == 1) break;
     const Slice whole = averaged(d, nullptr, &origin);
     for (size_t c = 0; c < cands.size(); ++c) {
-      const PithResult q = refine_pith_concentric(whole, geometry_, at[c], kAcquireFollowMm, nullptr);
+      const PithResult q =
+          refine_pith_concentric(whole, geometry_, at[c], kAcquireFollowMm, nullptr);
       if (q.found) at[c] = q.pith_mm;
       total[c] += wide_ring_score(whole, geometry_, at[c]);
     }
@@ -302,9 +307,11 @@ void PithTracker::decide(int centre) {
       // The vote is coarse at this noise: line the rings up around it (circles; the contour
       // is not known yet). Where it strays from the prior (knots, blurred inner rings where the
       // pith leans), the rings also get a chance around the prior; the better alignment wins.
-      PithResult q = refine_pith_concentric(box, geometry_, r.pith_mm, tracker_.ring_search_mm, nullptr);
+      PithResult q =
+          refine_pith_concentric(box, geometry_, r.pith_mm, tracker_.ring_search_mm, nullptr);
       if ((r.pith_mm - local).norm() > tracker_.ring_search_mm) {
-        const PithResult p = refine_pith_concentric(box, geometry_, local, tracker_.ring_search_mm, nullptr);
+        const PithResult p =
+            refine_pith_concentric(box, geometry_, local, tracker_.ring_search_mm, nullptr);
         if (p.found && (!q.found || p.confidence > q.confidence)) q = p;
       }
       if (q.found) r.pith_mm = q.pith_mm;
@@ -357,11 +364,10 @@ void PithTracker::decide(int centre) {
 
 namespace {
 
-
 PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<double>& z,
                       const std::vector<Vec2>& track, const VolumeGeometry& g,
-                      const PithOptions& options, const PithRefineOptions& refine, int half,
-                      int i, const std::vector<std::vector<double>>* outlines, Vec2 start,
+                      const PithOptions& options, const PithRefineOptions& refine, int half, int i,
+                      const std::vector<std::vector<double>>* outlines, Vec2 start,
                       const std::vector<Level>& levels) {
   const SliceCrop& c = crops[static_cast<size_t>(i)];
   if (c.hu.empty()) return {};
@@ -403,8 +409,9 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
   }
   for (size_t k = 0; k < avg.hu.size(); ++k)
     avg.hu[k] = count[k] > 0 ? avg.hu[k] / count[k] : centre_level;
-  const std::vector<double>* outline =
-      outlines && !(*outlines)[static_cast<size_t>(i)].empty() ? &(*outlines)[static_cast<size_t>(i)] : nullptr;
+  const std::vector<double>* outline = outlines && !(*outlines)[static_cast<size_t>(i)].empty()
+                                           ? &(*outlines)[static_cast<size_t>(i)]
+                                           : nullptr;
   PithResult r = refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline);
   if (r.found) r.pith_mm = r.pith_mm + origin;
   return r;
@@ -412,14 +419,11 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
 
 }  // namespace
 
-std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
-                                          const std::vector<double>& z,
-                                          const std::vector<Vec2>& track,
-                                          const VolumeGeometry& geometry,
-                                          const PithOptions& options,
-                                          const PithRefineOptions& refine,
-                                          const std::vector<std::vector<double>>* outlines,
-                                          const std::vector<bool>* which) {
+std::vector<PithResult> refine_pith_track(
+    const std::vector<SliceCrop>& crops, const std::vector<double>& z,
+    const std::vector<Vec2>& track, const VolumeGeometry& geometry, const PithOptions& options,
+    const PithRefineOptions& refine, const std::vector<std::vector<double>>* outlines,
+    const std::vector<bool>* which) {
   assert(crops.size() == z.size() && z.size() == track.size());
   const int n = static_cast<int>(crops.size());
   std::vector<PithResult> out(crops.size());
@@ -442,9 +446,9 @@ std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
     for (int j = next++; j < n; j = next++) {
       const SliceCrop& m = crops[static_cast<size_t>(j)];
       if (!needed[j] || m.hu.empty()) continue;
-      levels[static_cast<size_t>(j)] =
-          wood_level(m.hu.data(), m.width, m.height, track[j].x / geometry.spacing_x - m.x0,
-                     track[j].y / geometry.spacing_y - m.y0, lrx, lry, m.wood_min_hu, m.wood_max_hu);
+      levels[static_cast<size_t>(j)] = wood_level(
+          m.hu.data(), m.width, m.height, track[j].x / geometry.spacing_x - m.x0,
+          track[j].y / geometry.spacing_y - m.y0, lrx, lry, m.wood_min_hu, m.wood_max_hu);
     }
   };
   auto work = [&] {
@@ -489,7 +493,6 @@ bool contour_centre(const Vec2& around, const std::vector<double>& radius,
 
 namespace {
 
-
 // Weighted local linear fit of (z, x), (z, y) at z0; false if the weights are degenerate. `z`
 // is increasing, so only the slices within h of z0 are visited.
 bool local_linear(const std::vector<double>& z, const std::vector<Vec2>& p,
@@ -521,8 +524,7 @@ bool local_linear(const std::vector<double>& z, const std::vector<Vec2>& p,
 
 std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
                                     const std::vector<PithResult>& raw,
-                                    const PithTrackOptions& options,
-                                    std::vector<bool>* outlier) {
+                                    const PithTrackOptions& options, std::vector<bool>* outlier) {
   assert(z.size() == raw.size());
   const size_t n = z.size();
   std::vector<Vec2> p(n);
@@ -566,8 +568,7 @@ std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
       const size_t lo = static_cast<size_t>(
           std::lower_bound(z.begin(), z.end(), z[i] - options.window_mm) - z.begin());
       for (size_t j = lo; j < n && z[j] <= z[i] + options.window_mm; ++j)
-        if (prior_w[j] > 0)
-          xs.push_back(p[j].x), ys.push_back(p[j].y);
+        if (prior_w[j] > 0) xs.push_back(p[j].x), ys.push_back(p[j].y);
       if (xs.size() >= 3) {
         const Vec2 m{median(xs), median(ys)};
         const double d = (p[i] - m).norm();
@@ -591,7 +592,8 @@ std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
   }
   if (outlier) {
     outlier->assign(n, false);
-    for (size_t i = 0; i < n; ++i) (*outlier)[i] = raw[i].found && (prior_w[i] <= 0 || robust[i] <= 0);
+    for (size_t i = 0; i < n; ++i)
+      (*outlier)[i] = raw[i].found && (prior_w[i] <= 0 || robust[i] <= 0);
   }
   return fit;
 }

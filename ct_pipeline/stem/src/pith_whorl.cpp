@@ -78,7 +78,8 @@ std::vector<WhorlStreak> knot_streaks(const SliceCrop& crop, const VolumeGeometr
   const double r2 = region_radius_mm * region_radius_mm;
   for (int y = 1; y + 1 < h; ++y)
     for (int x = 1; x + 1 < w; ++x) {
-      const double px = (crop.x0 + x) * sx - region_centre.x, py = (crop.y0 + y) * sy - region_centre.y;
+      const double px = (crop.x0 + x) * sx - region_centre.x,
+                   py = (crop.y0 + y) * sy - region_centre.y;
       if (px * px + py * py > r2) continue;
       const size_t k = static_cast<size_t>(y) * w + x;
       inside[k] = 1;
@@ -141,7 +142,8 @@ std::vector<WhorlStreak> knot_streaks(const SliceCrop& crop, const VolumeGeometr
     }
   std::sort(streaks.begin(), streaks.end(),
             [](const WhorlStreak& a, const WhorlStreak& b) { return a.length_mm > b.length_mm; });
-  if (static_cast<int>(streaks.size()) > o.max_streaks) streaks.resize(static_cast<size_t>(o.max_streaks));
+  if (static_cast<int>(streaks.size()) > o.max_streaks)
+    streaks.resize(static_cast<size_t>(o.max_streaks));
   return streaks;
 }
 
@@ -156,7 +158,8 @@ WhorlPith meet_streaks(std::vector<WhorlStreak> streaks, std::vector<double> wei
   std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     return weight[a] * streaks[a].length_mm > weight[b] * streaks[b].length_mm;
   });
-  if (static_cast<int>(order.size()) > o.max_streaks) order.resize(static_cast<size_t>(o.max_streaks));
+  if (static_cast<int>(order.size()) > o.max_streaks)
+    order.resize(static_cast<size_t>(o.max_streaks));
   {
     std::vector<WhorlStreak> s2;
     std::vector<double> w2;
@@ -243,11 +246,11 @@ WhorlPith meet_streaks(std::vector<WhorlStreak> streaks, std::vector<double> wei
   out.distinct = static_cast<int>(dirs.size());
   const double line_error =
       std::max({pixel, o.line_error_mm, out.distinct > 2 ? out.residual_mm : 0.0});
-  out.expected_error_mm = std::max(0.5 * pixel, line_error / std::sqrt(std::max(1, out.distinct - 1)) /
-                                                     std::max(std::sin(widest), 0.4));
+  out.expected_error_mm =
+      std::max(0.5 * pixel, line_error / std::sqrt(std::max(1, out.distinct - 1)) /
+                                std::max(std::sin(widest), 0.4));
   return out;
 }
-
 
 WhorlPith whorl_pith(const SliceCrop& crop, const VolumeGeometry& g, Vec2 region_centre,
                      double region_radius_mm, double noise_hu, const WhorlPithOptions& o) {

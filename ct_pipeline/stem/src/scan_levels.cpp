@@ -51,8 +51,8 @@ constexpr double kDriedBelowHu = 700.0;
 constexpr double kClippedShare = 0.03;
 
 struct Mode {
-  double hu;      // position (HU)
-  double share;   // of all samples, between its valleys
+  double hu;     // position (HU)
+  double share;  // of all samples, between its valleys
   int peak_bin;
 };
 
@@ -72,8 +72,8 @@ ScanLevels estimate_levels(const Slice& slice, int samples) {
     out.notes = "empty slice";
     return out;
   }
-  const int stride =
-      std::max(1, static_cast<int>(std::sqrt(static_cast<double>(W) * H / std::max(1000, samples))));
+  const int stride = std::max(
+      1, static_cast<int>(std::sqrt(static_cast<double>(W) * H / std::max(1000, samples))));
   std::vector<float> v;
   v.reserve(static_cast<size_t>((W / stride + 1) * (H / stride + 1)));
   for (int y = 0; y < H; y += stride)
@@ -135,7 +135,8 @@ ScanLevels estimate_levels(const Slice& slice, int samples) {
     if (m < kMinModeShare * total) continue;
     // A spike of one value at the data's top is what a window or the scanner's range clipped
     // (the bed, metal, dense knots in a windowed export), not a wood mode.
-    if (at_ceiling >= kMinModeShare * total && hi - (lo + (i + 0.5) * bw) <= 3 * kSmoothHu) continue;
+    if (at_ceiling >= kMinModeShare * total && hi - (lo + (i + 0.5) * bw) <= 3 * kSmoothHu)
+      continue;
     // Sub-bin position: parabola through the smoothed peak.
     double off = 0;
     if (i > 0 && i + 1 < nb) {
@@ -211,8 +212,8 @@ ScanLevels estimate_levels(const Slice& slice, int samples) {
                       valley < kTwoModeValley * std::min(S[low->peak_bin], S[high->peak_bin]));
   if (!out.two_wood_modes) out.wood_low_hu = out.wood_high_hu = out.wood_hu;
   out.log_hu = out.air_hu + kLogShare * (out.wood_low_hu - out.air_hu);
-  out.dense_hu = out.wood_high_hu + std::max(kDenseShare * (out.wood_high_hu - out.air_hu),
-                                             kDenseSigmas * sigma);
+  out.dense_hu = out.wood_high_hu +
+                 std::max(kDenseShare * (out.wood_high_hu - out.air_hu), kDenseSigmas * sigma);
   out.dense_median_hu =
       out.wood_high_hu + std::max(kDenseShare * (out.wood_high_hu - out.air_hu),
                                   kDenseSigmas * sigma / std::sqrt(kDenseMedianSamples));

@@ -7,12 +7,12 @@
 
 #include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
-#include <csignal>
 #include <map>
 #include <mutex>
 #include <string>
@@ -109,7 +109,9 @@ void park_other_threads(int park_signal) {
   });
   ::close(fd);
   // A thread inside a system call (a mkdir, a write) finishes it, then parks.
-  struct timespec t {0, 30 * 1000 * 1000};
+  struct timespec t {
+    0, 30 * 1000 * 1000
+  };
   ::nanosleep(&t, nullptr);
 }
 

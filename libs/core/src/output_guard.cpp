@@ -77,12 +77,18 @@ bool is_hex(const std::string& s) {
 
 const char* output_kind_name(OutputKind kind) {
   switch (kind) {
-    case OutputKind::kRunFolder: return "a run folder";
-    case OutputKind::kScanFolder: return "a scan folder";
-    case OutputKind::kPhantomFolder: return "a phantom folder";
-    case OutputKind::kMapsFolder: return "a maps folder";
-    case OutputKind::kBatchFolder: return "a batch folder";
-    case OutputKind::kFile: return "a file";
+    case OutputKind::kRunFolder:
+      return "a run folder";
+    case OutputKind::kScanFolder:
+      return "a scan folder";
+    case OutputKind::kPhantomFolder:
+      return "a phantom folder";
+    case OutputKind::kMapsFolder:
+      return "a maps folder";
+    case OutputKind::kBatchFolder:
+      return "a batch folder";
+    case OutputKind::kFile:
+      return "a file";
   }
   return "an output";
 }
@@ -109,8 +115,7 @@ bool is_sawyer_output(const fs::path& dir, OutputKind kind) {
       if (!fs::is_directory(dir / "logs", ec)) return false;
       for (fs::directory_iterator it(dir / "logs", ec), end; !ec && it != end; it.increment(ec)) {
         const std::string n = it->path().filename().string();
-        if (!it->is_regular_file(ec) || !(n.ends_with(".out") || n.ends_with(".err")))
-          return false;
+        if (!it->is_regular_file(ec) || !(n.ends_with(".out") || n.ends_with(".err"))) return false;
       }
       return !ec;
     }
@@ -193,8 +198,8 @@ Result<OutputLock> OutputLock::lock_only(const fs::path& path, const std::string
   for (int attempt = 0; attempt < 5; ++attempt) {
     const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
     if (fd < 0)
-      return Error(lock_path.string(), std::string("cannot create the lock file: ") +
-                                           std::strerror(errno));
+      return Error(lock_path.string(),
+                   std::string("cannot create the lock file: ") + std::strerror(errno));
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
       const int err = errno;
       char buf[32] = {};
@@ -212,7 +217,8 @@ Result<OutputLock> OutputLock::lock_only(const fs::path& path, const std::string
     }
     // The holder before us may have removed the file after we opened it: then our lock is on
     // a file nobody else sees, so start again on the one at the path.
-    struct stat a {}, b {};
+    struct stat a {
+    }, b{};
     if (::fstat(fd, &a) != 0 || ::stat(lock_path.c_str(), &b) != 0 || a.st_ino != b.st_ino ||
         a.st_dev != b.st_dev) {
       ::close(fd);

@@ -21,9 +21,7 @@ constexpr int kTrackStride = 4;  // x, y, z, azimuth
 constexpr int kSliceAngles = 1440;
 
 // Pith distance beyond which knot i has no effect: its end plus the closing of its stub.
-double influence_end(const Knot& k) {
-  return k.r_end + 2.0 * 0.5 * k.max_diameter() + 5.0 + 1.0;
-}
+double influence_end(const Knot& k) { return k.r_end + 2.0 * 0.5 * k.max_diameter() + 5.0 + 1.0; }
 
 }  // namespace
 
@@ -62,8 +60,10 @@ WoodField::WoodField(const LogModel& log, const WoodFieldParams& params)
   const int n = std::max(1, static_cast<int>(std::ceil((hi - lo) / bucket_mm_)) + 1);
   buckets_.assign(n, {});
   for (size_t i = 0; i < info_.size(); ++i) {
-    const int a = std::clamp(static_cast<int>(std::floor((info_[i].zmin - lo) / bucket_mm_)), 0, n - 1);
-    const int b = std::clamp(static_cast<int>(std::floor((info_[i].zmax - lo) / bucket_mm_)), 0, n - 1);
+    const int a =
+        std::clamp(static_cast<int>(std::floor((info_[i].zmin - lo) / bucket_mm_)), 0, n - 1);
+    const int b =
+        std::clamp(static_cast<int>(std::floor((info_[i].zmax - lo) / bucket_mm_)), 0, n - 1);
     for (int j = a; j <= b; ++j) buckets_[j].push_back(static_cast<int>(i));
   }
 }
@@ -88,13 +88,13 @@ WoodField::KnotEval WoodField::eval_knot(int i, float r, float t_s, float R, con
   const float r_dead = static_cast<float>(k.r_dead);
   const float r_live = std::min(r, r_dead);
   const float rho0 = static_cast<float>(0.5 * k.diameter_at(r_live));
-  const float rho = glsl::wf_knot_rho(rho0, dist, beta, r, info_[i].seed,
-                                      static_cast<float>(params_.knot_noise));
+  const float rho =
+      glsl::wf_knot_rho(rho0, dist, beta, r, info_[i].seed, static_cast<float>(params_.knot_noise));
   const float t_c = r_live / R;
   const float t_since_death = std::max(r - r_dead, 0.0f) / R;
   const float t_b = glsl::wf_knot_time(dist, rho, t_c, t_since_death);
-  const float fade =
-      fade_range * glsl::wf_end_fade(r, static_cast<float>(k.r_end), static_cast<float>(0.5 * k.max_diameter()));
+  const float fade = fade_range * glsl::wf_end_fade(r, static_cast<float>(k.r_end),
+                                                    static_cast<float>(0.5 * k.max_diameter()));
   e.delta = glsl::wf_knot_delta(t_s, t_b, t_since_death, beta, fade);
   if (r <= static_cast<float>(k.r_end)) {
     e.t_b = t_b;
@@ -141,9 +141,7 @@ FieldSample WoodField::sample(const Vec3& p) const {
     const Knot& k = log_->knots[i];
     if (r > influence_end(k)) continue;
     const double z_axis = k.height_at(r);
-    if (std::abs(p.z - z_axis) >
-        glsl::wf_range_outer(s.r, static_cast<float>(r_ref_)))
-      continue;
+    if (std::abs(p.z - z_axis) > glsl::wf_range_outer(s.r, static_cast<float>(r_ref_))) continue;
     evals.push_back(eval_knot(i, s.r, s.t_stem, s.radius, p, k.axis_point(r, st),
                               static_cast<float>(k.azimuth_at(r))));
     ids.push_back(i);

@@ -1,6 +1,7 @@
-// The maps library's only door to OpenImageIO (STYLE.md 5: third-party types stay at the edges).
-// Images here are plain row-major arrays, top scanline first (row 0 is the top row as an image
-// viewer shows it, which is the first texture row an OpenGL upload of the file's pixels gets).
+// The maps library's only door to OpenImageIO (docs/style.md 5: third-party types stay at the
+// edges). Images here are plain row-major arrays, top scanline first (row 0 is the top row as an
+// image viewer shows it, which is the first texture row an OpenGL upload of the file's pixels
+// gets).
 //
 // Every function catches what OpenImageIO may throw and returns one-line errors that name
 // `shown` (the path the user knows; writers run inside a temporary folder whose name means

@@ -37,7 +37,8 @@ Result<std::vector<double>> numeric_row(const Json& rows, size_t i, size_t cols,
   for (size_t k = 0; k < cols; ++k) {
     if (!r[k].is_number()) return Error(where, "value " + std::to_string(k) + " is not a number");
     out[k] = r[k].get<double>();
-    if (!std::isfinite(out[k])) return Error(where, "value " + std::to_string(k) + " is not finite");
+    if (!std::isfinite(out[k]))
+      return Error(where, "value " + std::to_string(k) + " is not finite");
   }
   return out;
 }
@@ -102,19 +103,19 @@ Result<LogModel> import_gran1(const fs::path& folder, const std::string& name) {
   }
   s.z0_mm = zs[0];
   s.dz_mm = zs[1] - zs[0];
-  if (!(s.dz_mm > 0))
-    return Error(pith_path.string(), "z does not increase between rows 0 and 1");
+  if (!(s.dz_mm > 0)) return Error(pith_path.string(), "z does not increase between rows 0 and 1");
   for (size_t i = 1; i < zs.size(); ++i)
     if (std::abs(zs[i] - zs[0] - i * s.dz_mm) > 1e-3 * s.dz_mm)
-      return Error(pith_path.string() + ": row " + std::to_string(i),
-                   "z is not uniformly spaced (expected " + std::to_string(zs[0] + i * s.dz_mm) + ")");
+      return Error(
+          pith_path.string() + ": row " + std::to_string(i),
+          "z is not uniformly spaced (expected " + std::to_string(zs[0] + i * s.dz_mm) + ")");
 
   // Radii: one row of 360 per slice; row value j is at the published map's azimuth j degrees,
   // measured from +y towards +x, i.e. at our ω = 90° − j.
   const Json& radii = rj.value();
   if (!radii.is_array() || radii.size() != s.pith.size())
-    return Error(radii_path.string(), "expected " + std::to_string(s.pith.size()) +
-                                          " rows, one per pith row");
+    return Error(radii_path.string(),
+                 "expected " + std::to_string(s.pith.size()) + " rows, one per pith row");
   s.n_angles = 360;
   if (radii.size() > static_cast<size_t>(log_limits::kMaxSlices))
     return Error(radii_path.string(), std::to_string(radii.size()) + " rows, more than the " +
@@ -126,7 +127,8 @@ Result<LogModel> import_gran1(const fs::path& folder, const std::string& name) {
     std::vector<double> ours(360);
     for (int k = 0; k < 360; ++k) {
       const double v = row.value()[((90 - k) % 360 + 360) % 360];
-      if (!(v > 0)) return Error(radii_path.string() + ": row " + std::to_string(i), "radius must be positive");
+      if (!(v > 0))
+        return Error(radii_path.string() + ": row " + std::to_string(i), "radius must be positive");
       ours[k] = v;
       rmin = std::min(rmin, v);
     }
@@ -152,7 +154,8 @@ Result<LogModel> import_gran1(const fs::path& folder, const std::string& name) {
     k.r_end = v[7];
     k.r_dead = v[8];
     if (!(k.r_end > 0))
-      return Error(knots_path.string() + ": knot " + std::to_string(i), "end distance H must be positive");
+      return Error(knots_path.string() + ": knot " + std::to_string(i),
+                   "end distance H must be positive");
     if (std::abs(k.z0) > log_limits::kMaxAbsZMm)
       return Error(knots_path.string() + ": knot " + std::to_string(i),
                    "height C = " + std::to_string(k.z0) + " mm is outside ±" +

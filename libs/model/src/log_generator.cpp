@@ -4,7 +4,7 @@
 // WHAT IS DRAWN, AND WHERE THE RANGES COME FROM
 //
 // Every range below is a named constant further down, with its source. "DESIGN" is
-// shared/DESIGN.md section 6 (what log scanners see: logs 3–6 m, 12–45 cm in diameter, 30–120
+// docs/architecture.md section 6 (what log scanners see: logs 3–6 m, 12–45 cm in diameter, 30–120
 // knots, pine whorls every 0.3–0.6 m with 3–6 knots). "Gran_1" is the real CT-measured spruce
 // log in sample_logs/gran1_spruce (4 m, 108 knots), used as a check on knot geometry: its knots
 // have b ≈ 0.1–0.5, a ≈ −0.4–0, |twist| ≲ 0.08 rad per ln mm, r_dead ≈ 40–140 mm; `sawyer info`

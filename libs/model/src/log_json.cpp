@@ -60,7 +60,8 @@ Result<double> number_at(const Json& obj, const std::string& path, const char* k
   Result<const Json*> m = member(obj, path, key);
   if (!m) return m.error();
   const Json& v = *m.value();
-  if (!v.is_number()) return Error(path + key, std::string("expected a number, got ") + type_name(v));
+  if (!v.is_number())
+    return Error(path + key, std::string("expected a number, got ") + type_name(v));
   const double d = v.get<double>();
   if (!std::isfinite(d)) return Error(path + key, "not a finite number");
   return d;
@@ -90,7 +91,8 @@ Result<std::string> string_at(const Json& obj, const std::string& path, const ch
 }
 
 Result<std::vector<double>> number_list(const Json& v, const std::string& where) {
-  if (!v.is_array()) return Error(where, std::string("expected an array of numbers, got ") + type_name(v));
+  if (!v.is_array())
+    return Error(where, std::string("expected an array of numbers, got ") + type_name(v));
   std::vector<double> out;
   out.reserve(v.size());
   for (size_t i = 0; i < v.size(); ++i) {
@@ -98,7 +100,8 @@ Result<std::vector<double>> number_list(const Json& v, const std::string& where)
       return Error(where + "[" + std::to_string(i) + "]",
                    std::string("expected a number, got ") + type_name(v[i]));
     const double d = v[i].get<double>();
-    if (!std::isfinite(d)) return Error(where + "[" + std::to_string(i) + "]", "not a finite number");
+    if (!std::isfinite(d))
+      return Error(where + "[" + std::to_string(i) + "]", "not a finite number");
     out.push_back(d);
   }
   return out;
@@ -106,7 +109,8 @@ Result<std::vector<double>> number_list(const Json& v, const std::string& where)
 
 Result<std::vector<std::vector<double>>> rows_at(const Json& v, const std::string& where,
                                                  size_t rows, size_t cols) {
-  if (!v.is_array()) return Error(where, std::string("expected an array of rows, got ") + type_name(v));
+  if (!v.is_array())
+    return Error(where, std::string("expected an array of rows, got ") + type_name(v));
   if (v.size() != rows)
     return Error(where, "has " + std::to_string(v.size()) + " rows, expected " +
                             std::to_string(rows) + " (one per pith sample)");
@@ -137,7 +141,8 @@ Result<Stem> parse_stem(const Json& j) {
   Result<const Json*> pith = member(j, p, "pith");
   if (!pith) return pith.error();
   const Json& pj = *pith.value();
-  if (!pj.is_array()) return Error("stem.pith", std::string("expected an array of [x, y], got ") + type_name(pj));
+  if (!pj.is_array())
+    return Error("stem.pith", std::string("expected an array of [x, y], got ") + type_name(pj));
   if (pj.size() > static_cast<size_t>(lim::kMaxSlices))
     return Error("stem.pith", "has " + std::to_string(pj.size()) + " samples, more than the " +
                                   std::to_string(lim::kMaxSlices) + " allowed");
@@ -167,13 +172,15 @@ Result<Stem> parse_stem(const Json& j) {
     return Error("stem.n_angles", std::to_string(s.n_angles) + " is outside " +
                                       std::to_string(lim::kMinAngles) + "-" +
                                       std::to_string(lim::kMaxAngles));
-  Result<std::vector<std::vector<double>>> rad = rows_at(rj, "stem.radius", s.pith.size(), s.n_angles);
+  Result<std::vector<std::vector<double>>> rad =
+      rows_at(rj, "stem.radius", s.pith.size(), s.n_angles);
   if (!rad) return rad.error();
   s.radius = std::move(rad).value();
   Result<const Json*> hw = member(j, p, "heartwood", false);
   if (!hw) return hw.error();
   if (hw.value()) {
-    Result<std::vector<std::vector<double>>> h = rows_at(*hw.value(), "stem.heartwood", s.pith.size(), s.n_angles);
+    Result<std::vector<std::vector<double>>> h =
+        rows_at(*hw.value(), "stem.heartwood", s.pith.size(), s.n_angles);
     if (!h) return h.error();
     s.heartwood = std::move(h).value();
   }
@@ -208,10 +215,14 @@ Result<Knot> parse_knot(const Json& j, size_t index) {
     const char* key;
     double* dst;
   };
-  const Field fields[] = {{"z0", &k.z0},         {"a", &k.a},
-                          {"b", &k.b},           {"omega0", &k.omega0},
-                          {"twist", &k.twist},   {"r_dead", &k.r_dead},
-                          {"r_end", &k.r_end},   {"d_dead", &k.diameter.d_dead},
+  const Field fields[] = {{"z0", &k.z0},
+                          {"a", &k.a},
+                          {"b", &k.b},
+                          {"omega0", &k.omega0},
+                          {"twist", &k.twist},
+                          {"r_dead", &k.r_dead},
+                          {"r_end", &k.r_end},
+                          {"d_dead", &k.diameter.d_dead},
                           {"d_exp", &k.diameter.exponent}};
   for (const Field& f : fields) {
     Result<double> v = number_at(j, p, f.key);
@@ -266,13 +277,15 @@ Result<std::vector<std::string>> qa_lines(const Json& obj, const std::string& pa
   if (!m) return m.error();
   if (!m.value()) return out;
   const Json& a = *m.value();
-  if (!a.is_array()) return Error(path + key, std::string("expected an array, got ") + type_name(a));
+  if (!a.is_array())
+    return Error(path + key, std::string("expected an array, got ") + type_name(a));
   if (a.size() > static_cast<size_t>(lim::kMaxQaLines))
     return Error(path + key, "has " + std::to_string(a.size()) + " lines, more than the " +
                                  std::to_string(lim::kMaxQaLines) + " allowed");
   for (size_t i = 0; i < a.size(); ++i) {
     const std::string w = path + key + "[" + std::to_string(i) + "]";
-    if (!a[i].is_string()) return Error(w, std::string("expected a string, got ") + type_name(a[i]));
+    if (!a[i].is_string())
+      return Error(w, std::string("expected a string, got ") + type_name(a[i]));
     std::string s = a[i].get<std::string>();
     if (s.size() > lim::kMaxQaLineChars)
       return Error(w, "longer than " + std::to_string(lim::kMaxQaLineChars) + " characters");
@@ -290,7 +303,8 @@ Result<ScanQa> parse_qa(const Json& j) {
   Result<const Json*> t = member(j, p, "trusted");
   if (!t) return t.error();
   if (!t.value()->is_boolean())
-    return Error(p + "trusted", std::string("expected true or false, got ") + type_name(*t.value()));
+    return Error(p + "trusted",
+                 std::string("expected true or false, got ") + type_name(*t.value()));
   q.trusted = t.value()->get<bool>();
   Result<std::vector<std::string>> w = qa_lines(j, p, "warnings");
   if (!w) return w.error();
@@ -336,7 +350,8 @@ static Json qa_to_json(const ScanQa& q) {
   j["warnings"] = q.warnings;
   Json st = Json::array();
   for (const ScanQa::Stage& s : q.stages)
-    st.push_back({{"stage", s.name}, {"ok", s.ok}, {"confidence", s.confidence}, {"notes", s.notes}});
+    st.push_back(
+        {{"stage", s.name}, {"ok", s.ok}, {"confidence", s.confidence}, {"notes", s.notes}});
   j["stages"] = std::move(st);
   return j;
 }
@@ -350,6 +365,22 @@ Result<ScanQa> qa_from_json_text(const std::string& text) {
     return Error("qa", std::string("not readable: ") + e.what());
   }
 }
+
+namespace {
+
+Json frame_to_json(const ScannerFrame& f) {
+  Json fj;
+  fj["origin_mm"] = {f.origin_mm.x, f.origin_mm.y, f.origin_mm.z};
+  fj["row_dir"] = {f.row_dir.x, f.row_dir.y, f.row_dir.z};
+  fj["col_dir"] = {f.col_dir.x, f.col_dir.y, f.col_dir.z};
+  fj["z0_mm"] = f.z0_mm;
+  fj["z_dir"] = f.z_dir;
+  return fj;
+}
+
+}  // namespace
+
+std::string scanner_frame_json_text(const ScannerFrame& f) { return frame_to_json(f).dump(); }
 
 std::string log_to_json(const LogModel& log) {
   Json j;
@@ -386,16 +417,7 @@ std::string log_to_json(const LogModel& log) {
     knots.push_back(std::move(kj));
   }
   j["knots"] = std::move(knots);
-  if (log.scanner_frame) {
-    const ScannerFrame& f = *log.scanner_frame;
-    Json fj;
-    fj["origin_mm"] = {f.origin_mm.x, f.origin_mm.y, f.origin_mm.z};
-    fj["row_dir"] = {f.row_dir.x, f.row_dir.y, f.row_dir.z};
-    fj["col_dir"] = {f.col_dir.x, f.col_dir.y, f.col_dir.z};
-    fj["z0_mm"] = f.z0_mm;
-    fj["z_dir"] = f.z_dir;
-    j["scanner_frame"] = std::move(fj);
-  }
+  if (log.scanner_frame) j["scanner_frame"] = frame_to_json(*log.scanner_frame);
   if (log.qa) j["qa"] = qa_to_json(*log.qa);
   // One stem row or knot per line keeps the file diff-able and compact.
   std::ostringstream os;
@@ -647,8 +669,8 @@ Status validate_frame(const ScannerFrame& f) {
     return st;
   for (auto [key, d] : {std::pair{"row_dir", f.row_dir}, std::pair{"col_dir", f.col_dir}}) {
     if (!std::isfinite(d.norm()) || std::abs(d.norm() - 1) > 1e-3)
-      return Error(w + key, "(" + num(d.x) + ", " + num(d.y) + ", " + num(d.z) +
-                                ") is not a unit vector");
+      return Error(w + key,
+                   "(" + num(d.x) + ", " + num(d.y) + ", " + num(d.z) + ") is not a unit vector");
   }
   if (std::abs(dot(f.row_dir, f.col_dir)) > 1e-3)
     return Error(w + "col_dir", "is not perpendicular to row_dir");

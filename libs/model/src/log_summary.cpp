@@ -118,8 +118,9 @@ void print_summary(std::ostream& os, const LogModel& log, const LogSummary& s) {
   line("volume") << std::setprecision(4) << s.volume_m3 << " m3\n";
   line("taper") << std::setprecision(2) << s.taper_mm_per_m << " mm/m\n";
   line("ovality") << std::setprecision(1) << 100.0 * s.ovality << " %\n";
-  line("pith wander") << std::setprecision(1) << s.pith_wander_mm << " mm  (from its straight line; tilt "
-                      << std::setprecision(2) << s.pith_tilt_mm_per_m << " mm/m)\n";
+  line("pith wander") << std::setprecision(1) << s.pith_wander_mm
+                      << " mm  (from its straight line; tilt " << std::setprecision(2)
+                      << s.pith_tilt_mm_per_m << " mm/m)\n";
   if (s.has_heartwood)
     line("heartwood radius mean") << std::setprecision(1) << s.mean_heartwood_radius_mm << " mm\n";
   line("knots") << s.knot_count << "  (sound " << s.sound_knots << ", with a dead part "

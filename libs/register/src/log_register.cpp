@@ -547,13 +547,16 @@ fs::path default_register_path() {
   return {};
 }
 
-Result<fs::path> register_path(const std::string& db_option, const std::string& option) {
+Result<fs::path> register_path(const std::string& db_option, const std::string& option,
+                               const std::string& off_option) {
   if (!db_option.empty()) return fs::path(db_option);
   fs::path p = default_register_path();
   if (p.empty())
-    return Error("log register", "none of SAWYER_DB, XDG_DATA_HOME and HOME is set, so there is "
-                                 "no default register; give " +
-                                     option + " FILE or set SAWYER_DB (or pass --no-register)");
+    return Error("log register",
+                 "none of SAWYER_DB, XDG_DATA_HOME and HOME is set, so there is "
+                 "no default register; give " +
+                     option + " FILE or set SAWYER_DB" +
+                     (off_option.empty() ? "" : " (or pass " + off_option + ")"));
   return p;
 }
 

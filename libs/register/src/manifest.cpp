@@ -226,9 +226,9 @@ Result<Manifest> read_manifest(const fs::path& path) {
 Result<Shard> parse_shard(const std::string& text) {
   const size_t slash = text.find('/');
   auto bad = [&](const std::string& why) {
-    return Error("--shard", "'" + text + "': " + why +
-                                " (expected i/N with 0 <= i < N, e.g. 0/8 ... 7/8; 0-based like "
-                                "SLURM_ARRAY_TASK_ID)");
+    return Error("shard_spec", "'" + text + "': " + why +
+                                   " (expected i/N with 0 <= i < N, e.g. 0/8 ... 7/8; 0-based like "
+                                   "SLURM_ARRAY_TASK_ID)");
   };
   if (slash == std::string::npos) return bad("no '/'");
   auto number = [](const std::string& s, int& out) {

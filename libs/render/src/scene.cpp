@@ -106,23 +106,24 @@ Result<Board> Board::from_string(const std::string& text) {
       if (used != item.size()) throw std::invalid_argument(item);
       v.push_back(x);
     } catch (const std::exception&) {
-      return Error("--board", "'" + item + "' is not a number (expected x,y,w,t,rot,z0,z1)");
+      return Error("Board::from_string",
+                   "'" + item + "' is not a number (expected x,y,w,t,rot,z0,z1)");
     }
   }
   if (v.size() != 7)
-    return Error("--board", "expected 7 numbers x,y,w,t,rot,z0,z1 (mm, degrees), got " +
-                                std::to_string(v.size()));
+    return Error("Board::from_string", "expected 7 numbers x,y,w,t,rot,z0,z1 (mm, degrees), got " +
+                                           std::to_string(v.size()));
   Board b;
   b.cx = v[0];
   b.cy = v[1];
   b.width = v[2];
   b.thickness = v[3];
   if (!(std::abs(v[4]) <= 360))
-    return Error("--board", "rotation " + num(v[4]) + "° is outside -360 to 360°");
+    return Error("Board::from_string", "rotation " + num(v[4]) + "° is outside -360 to 360°");
   b.rotation = v[4] * kPi / 180.0;
   b.z0 = v[5];
   b.z1 = v[6];
-  if (Status st = b.validate(); !st) return Error("--board", st.error().message());
+  if (Status st = b.validate(); !st) return Error("Board::from_string", st.error().message());
   return b;
 }
 

@@ -7,7 +7,6 @@
 namespace sawyer::render {
 namespace {
 
-
 struct Tile {
   PlaneRect rect;
   Viewport vp;
@@ -80,17 +79,17 @@ std::vector<Tile> single_tile(const PlaneRect& rect, ImageSize& size, const Face
 
 Status check_image_size(int w, int h, int n, bool float_field) {
   if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide)
-    return Error("--size", std::to_string(w) + "x" + std::to_string(h) + " outside 1.." +
-                               std::to_string(kMaxImageSide) + " pixels");
+    return Error("ImageSize", std::to_string(w) + "x" + std::to_string(h) + " outside 1.." +
+                                  std::to_string(kMaxImageSide) + " pixels");
   const long long bytes = static_cast<long long>(w) * n * h * n * (float_field ? 16 : 4);
   if (bytes > kMaxFramebufferBytes) {
     const std::string samples =
         n > 1 ? " at " + std::to_string(n) + "x" + std::to_string(n) + " supersampling" : "";
-    return Error("--size", std::to_string(w) + "x" + std::to_string(h) + samples + " needs " +
-                               std::to_string(bytes >> 20) + " MiB of framebuffer, more than the " +
-                               std::to_string(kMaxFramebufferBytes >> 20) +
-                               " MiB allowed (a smaller size" + (n > 1 ? " or --supersample" : "") +
-                               ")");
+    return Error("ImageSize",
+                 std::to_string(w) + "x" + std::to_string(h) + samples + " needs " +
+                     std::to_string(bytes >> 20) + " MiB of framebuffer, more than the " +
+                     std::to_string(kMaxFramebufferBytes >> 20) + " MiB allowed (a smaller size" +
+                     (n > 1 ? " or less FaceLayout::supersample" : "") + ")");
   }
   return Status::Ok();
 }
@@ -102,8 +101,8 @@ Result<Image> render_board_faces(WoodRenderer& r, const Board& board, unsigned f
   std::vector<PlaneRect> rects;
   for (unsigned bit = 1; bit <= 32; bit <<= 1)
     if (faces & bit) rects.push_back(board.face(static_cast<Face>(bit)));
-  if (rects.empty()) return Error("--face", "no face selected");
-  if (size.width < 1) return Error("--size", "width must be at least 1 pixel");
+  if (rects.empty()) return Error("face_mask", "no face selected");
+  if (size.width < 1) return Error("ImageSize", "width must be at least 1 pixel");
   double max_w = 0, sum_h = 0;
   for (const PlaneRect& p : rects) {
     max_w = std::max(max_w, p.width);

@@ -421,8 +421,9 @@ void WoodRenderer::draw_plane(const PlaneRect& rect, const Viewport& viewport,
   std::vector<Vertex> v;
   const Vec3 n = rect.normal();
   for (const Vec3& p : {rect.at(0, 0), rect.at(2, 0), rect.at(0, 2)})
-    v.push_back(Vertex{{static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)},
-                       {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)}});
+    v.push_back(
+        Vertex{{static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)},
+               {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)}});
   m.draw_vertices(v, 5e-4f);
   glBindVertexArray(0);
 }

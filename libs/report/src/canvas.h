@@ -1,5 +1,6 @@
-// Cairo at the edge of the report library (STYLE.md 5): owned surfaces and contexts, the report's
-// fonts and colours, text helpers, and conversions to and from the renderer's images and PNG.
+// Cairo at the edge of the report library (docs/style.md 5): owned surfaces and contexts, the
+// report's fonts and colours, text helpers, and conversions to and from the renderer's images and
+// PNG.
 #pragma once
 
 #include <cairo.h>

@@ -91,8 +91,9 @@ class PdfWriter {
     if (const auto& qa = c_.run->log.qa; qa && !qa->trusted) {
       set_font(cr_, 8.5, true);
       set_color(cr_, kWarn);
-      draw_text(cr_, "NOT TO BE TRUSTED: the scan's QA verdict failed; the position below rests "
-                     "on an uncertain model",
+      draw_text(cr_,
+                "NOT TO BE TRUSTED: the scan's QA verdict failed; the position below rests "
+                "on an uncertain model",
                 kMargin, y_ - 6);
       y_ += 13;
       if (page_ == 1) {
@@ -569,7 +570,7 @@ Rows position_rows(const Content& c) {
       {"Frame", c.run->log.scanner_frame
                     ? fmt("scanner x, y; z from %.1f mm", c.run->log.scanner_frame->z0_mm)
                     : std::string("log model (no scanner frame)")},
-      {"Scan QA", !c.run->log.qa            ? std::string("—")
+      {"Scan QA", !c.run->log.qa           ? std::string("—")
                   : c.run->log.qa->trusted ? std::string("passed")
                                            : std::string("FAILED: position not to be trusted")},
       {"Value", money(s.chosen.value, s.currency) + expected},

@@ -167,7 +167,8 @@ SurfacePtr crop_to_content(SurfacePtr surface, int margin) {
   const unsigned char* data = cairo_image_surface_get_data(src);
   int x0 = w, x1 = -1, y0 = h, y1 = -1;
   for (int y = 0; y < h; ++y) {
-    const auto* row = reinterpret_cast<const std::uint32_t*>(data + static_cast<size_t>(y) * stride);
+    const auto* row =
+        reinterpret_cast<const std::uint32_t*>(data + static_cast<size_t>(y) * stride);
     for (int x = 0; x < w; ++x) {
       const std::uint32_t p = row[x];  // xRGB
       if (((p >> 16) & 0xff) < 250 || ((p >> 8) & 0xff) < 250 || (p & 0xff) < 250) {

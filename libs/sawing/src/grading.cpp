@@ -120,7 +120,8 @@ void count_knot(const KnotOnSide& k, int index, const GradingRules& rules,
   ++s.count;
   if (k.dead) {
     ++s.dead_count;
-    if (k.width_mm > s.dead_mm || s.largest_dead < 0) s.dead_mm = k.width_mm, s.largest_dead = index;
+    if (k.width_mm > s.dead_mm || s.largest_dead < 0)
+      s.dead_mm = k.width_mm, s.largest_dead = index;
   } else if (k.width_mm > s.sound_mm || s.largest_sound < 0) {
     s.sound_mm = k.width_mm, s.largest_sound = index;
   }

@@ -97,14 +97,16 @@ Status OptimiseOptions::validate(const Pattern& p) const {
   const double range = rot_range_deg != 0 ? rot_range_deg : (is_point_symmetric(p) ? 180 : 360);
   // Steps below 0.01° or 0.01 mm are far finer than any saw can set a log; the bounds also keep
   // the grid's counts within int before the position budget below is checked.
-  if (Status st = in_range("rotation step", "--rot-step", rot_step_deg, kMinRotStepDeg, range, "°");
+  if (Status st =
+          in_range("rotation step", "rot_step_deg", rot_step_deg, kMinRotStepDeg, range, "°");
       !st)
     return st;
   if (!whole(range / rot_step_deg) || range / rot_step_deg < 1)
     return Error("rotation step", "must divide " + std::to_string(static_cast<int>(range)) + "°");
   for (auto [name, opt, opt_step, max, step] :
-       {std::tuple{"offset x", "--offsets", "--offset-step", offset_x_max_mm, offset_x_step_mm},
-        std::tuple{"offset y", "--offsets-y", "--offset-y-step", offset_y_max_mm,
+       {std::tuple{"offset x", "offset_x_max_mm", "offset_x_step_mm", offset_x_max_mm,
+                   offset_x_step_mm},
+        std::tuple{"offset y", "offset_y_max_mm", "offset_y_step_mm", offset_y_max_mm,
                    offset_y_step_mm}}) {
     if (!(max >= 0)) return Error(name, "range must be ≥ 0");
     if (Status st = in_range(name, opt, max, 0, kMaxOffsetMm, " mm"); !st) return st;
@@ -117,14 +119,15 @@ Status OptimiseOptions::validate(const Pattern& p) const {
     }
   }
   if (!(sigma_rot_deg >= 0) || !(sigma_offset_mm >= 0)) return Error("sigma", "must be ≥ 0");
-  if (Status st = in_range("sigma", "--sigma-rot", sigma_rot_deg, 0, kMaxSigmaRotDeg, "°"); !st)
+  if (Status st = in_range("sigma", "sigma_rot_deg", sigma_rot_deg, 0, kMaxSigmaRotDeg, "°"); !st)
     return st;
-  if (Status st = in_range("sigma", "--sigma-offset", sigma_offset_mm, 0, kMaxSigmaOffsetMm, " mm");
+  if (Status st =
+          in_range("sigma", "sigma_offset_mm", sigma_offset_mm, 0, kMaxSigmaOffsetMm, " mm");
       !st)
     return st;
   if (threads < 0) return Error("threads", "must be ≥ 0");
   if (model_draws < 0 || model_draws > kMaxModelDraws)
-    return Error("model draws (--scan-draws)",
+    return Error("model draws (model_draws)",
                  std::to_string(model_draws) + " is outside 0-" + std::to_string(kMaxModelDraws));
   // Every position is sawn and graded, and the value surface is kept twice: the grid's size is
   // the job's time and memory.
@@ -136,14 +139,14 @@ Status OptimiseOptions::validate(const Pattern& p) const {
   if (nr * nx * ny > kMaxPositions)
     return Error("sawing grid",
                  num(nr * nx * ny) + " positions (" + num(nr) + " rotations × " + num(nx) + " × " +
-                     num(ny) + " offsets from --rot-step " + num(rot_step_deg) + ", --offsets " +
-                     num(offset_x_max_mm) + " --offset-step " + num(offset_x_step_mm) +
-                     ", --offsets-y " + num(offset_y_max_mm) + " --offset-y-step " +
-                     num(offset_y_step_mm) + ") is more than the " + num(kMaxPositions) +
-                     " allowed; use coarser steps or narrower offsets");
+                     num(ny) + " offsets from rot_step_deg " + num(rot_step_deg) +
+                     ", offset_x_max_mm " + num(offset_x_max_mm) + " offset_x_step_mm " +
+                     num(offset_x_step_mm) + ", offset_y_max_mm " + num(offset_y_max_mm) +
+                     " offset_y_step_mm " + num(offset_y_step_mm) + ") is more than the " +
+                     num(kMaxPositions) + " allowed; use coarser steps or narrower offsets");
   // Each draw of the scan's uncertainty saws every position once more.
   if (nr * nx * ny * (1 + model_draws) > kMaxPositions)
-    return Error("model draws (--scan-draws)",
+    return Error("model draws (model_draws)",
                  num(nr * nx * ny) + " positions × " + num(1 + model_draws) +
                      " models is more than the " + num(kMaxPositions) +
                      " sawings allowed; use fewer draws or a coarser grid");

@@ -54,7 +54,9 @@ BowInfo detect_bow(const Stem& stem, double min_bow_mm) {
   }
   // Solve [s0 s1 s2; s1 s2 s3; s2 s3 s4] [a b q] = r for q (Cramer's rule on the last column).
   auto det3 = [](double a, double b, double cc, double d, double e, double f, double g, double hh,
-                 double k) { return a * (e * k - f * hh) - b * (d * k - f * g) + cc * (d * hh - e * g); };
+                 double k) {
+    return a * (e * k - f * hh) - b * (d * k - f * g) + cc * (d * hh - e * g);
+  };
   const double det = det3(s[0], s[1], s[2], s[1], s[2], s[3], s[2], s[3], s[4]);
   if (!(std::abs(det) > 1e-12)) return out;
   const Vec2 q{det3(s[0], s[1], r[0].x, s[1], s[2], r[1].x, s[2], s[3], r[2].x) / det,

@@ -249,7 +249,8 @@ bool side_ok(const Placement& pl, int i, double pu, double pv, bool pin, double 
   }
   if (sure_ok && limit > 0) {
     const Vec2 p = pl.to_log(i, pu, pv), q = pl.to_log(i, qu, qv);
-    const int c = !pin ? crossing_vs(pl, i, p, q, len, limit) : crossing_vs(pl, i, q, p, len, limit);
+    const int c =
+        !pin ? crossing_vs(pl, i, p, q, len, limit) : crossing_vs(pl, i, q, p, len, limit);
     if (c != 0) return c < 0;
   }
   auto dec = [&](double lo, double hi) {

@@ -4,7 +4,6 @@
 #include <cstdio>
 
 #include "sawyer/sawing/placement.h"
-#include "sawyer/sawing/sawing_json.h"
 #include "sawyer/sawing/setup.h"
 
 namespace sawyer::sawing {
@@ -65,8 +64,11 @@ std::string offset_edge_note(const OptimiseResult& r) {
   const bool y = on_edge(r.offsets_y_mm, r.best.pos.offset_y_mm);
   if (!x && !y) return "";
   return std::string("the best position is on the edge of the offset grid (") +
-         (x && y ? "x and y" : x ? "x" : "y") +
-         "): a wider range (--offsets" + (y && !x ? "-y" : "") + ") may be worth more";
+         (x && y ? "x and y"
+          : x    ? "x"
+                 : "y") +
+         "): a wider range (" + (y && !x ? "offset_y_max_mm" : "offset_x_max_mm") +
+         ") may be worth more";
 }
 
 std::string bow_line(const BowInfo& b) {
@@ -106,114 +108,6 @@ std::string offcut_note(double sawn_begin, double sawn_end, double z_begin, doub
                 (sawn_end - sawn_begin) * 1e-3, (z_begin - sawn_begin) * 1e-3, sawn_begin * 1e-3,
                 (sawn_end - z_end) * 1e-3, sawn_end * 1e-3);
   return buf;
-}
-
-namespace {
-
-// The position as the saw executes it: the turn from the log's orientation in the scanner and
-// the pattern centre at the log's two ends, in scanner x, y, z (docs/sawing.md, "Frames").
-Json scanner_json(const SawLog& log, const LogPosition& pos) {
-  Json ends = Json::array();
-  for (const Vec3& c : pattern_centre_at_ends(log, pos)) ends.push_back({c.x, c.y, c.z});
-  return {{"turn_deg", scanner_position(log, pos).turn_deg}, {"pattern_centre_at_ends_mm", ends}};
-}
-
-Json ranked_json(const SawLog& log, const RankedPosition& r) {
-  Json j = position_json(r.pos);
-  j["value"] = r.value;
-  j["smoothed_value"] = r.smoothed;
-  j["scanner"] = scanner_json(log, r.pos);
-  return j;
-}
-
-Json bow_json(const BowInfo& b) {
-  return {{"method",
-           "arc fitted to the outline's centre line (area centroids per height); the horns point "
-           "along its curvature"},
-          {"arc_sagitta_mm", b.height_mm},
-          {"chord_sweep_mm", b.chord_mm},
-          {"min_bow_mm", kMinBowMm},
-          {"straight", b.straight},
-          {"horns_azimuth_deg", b.horns_azimuth * 180.0 / kPi},
-          {"horns_down",
-           b.straight ? "convention: the log as it lay in the scanner (bow below min_bow_mm)"
-                      : "from the bow"}};
-}
-
-// Which frame the positions and coordinates are in: offsets and rotation are relative to the
-// log (its mean pith line and horns), the log's x, y are the scanner's when the model came from
-// a CT scan (its scanner_frame, recorded here so a saw can be set from it).
-Json frame_json(const LogModel& log) {
-  Json j;
-  j["position"] =
-      "rotation_deg from horns down about the mean pith line; offset_x_mm, offset_y_mm from the "
-      "mean pith line in the turned cross-section (docs/sawing.md); \"scanner\": the same "
-      "position as executed: turn_deg from the log's orientation in the scanner, counter-"
-      "clockwise in the scanner's x-y plane, and the pattern centre at the log's two ends";
-  j["coordinates"] = log.scanner_frame ? "scanner" : "log model";
-  if (log.scanner_frame) {
-    const ScannerFrame& f = *log.scanner_frame;
-    j["scanner_frame"] = {{"origin_mm", {f.origin_mm.x, f.origin_mm.y, f.origin_mm.z}},
-                          {"row_dir", {f.row_dir.x, f.row_dir.y, f.row_dir.z}},
-                          {"col_dir", {f.col_dir.x, f.col_dir.y, f.col_dir.z}},
-                          {"z0_mm", f.z0_mm},
-                          {"z_dir", f.z_dir}};
-  }
-  return j;
-}
-
-}  // namespace
-
-Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOutcome& out) {
-  const OptimiseResult& r = out.opt;
-  const OptimiseOptions& o = setup.options;
-  Json j;
-  j["format"] = "sawyer-sawing/1";
-  j["log"] = log.id;
-  j["pattern"] = setup.pattern.name;
-  j["grading"] = setup.rules.name;
-  j["prices"] = setup.prices.name;
-  j["currency"] = setup.prices.currency;
-  j["inputs"] = {{"pattern", setup.names.pattern},
-                 {"grading", setup.names.grading},
-                 {"prices", setup.prices_path.string()}};
-  j["options"] = {
-      {"rot_step_deg", o.rot_step_deg},       {"rot_range_deg", r.rot_range_deg},
-      {"offset_x_max_mm", o.offset_x_max_mm}, {"offset_x_step_mm", o.offset_x_step_mm},
-      {"offset_y_max_mm", o.offset_y_max_mm}, {"offset_y_step_mm", o.offset_y_step_mm},
-      {"sigma_rot_deg", o.sigma_rot_deg},     {"sigma_offset_mm", o.sigma_offset_mm},
-      {"model_draws", r.model_draws}};
-  if (r.model_draws > 0) j["options"]["scan_spread"] = r.spread_note;
-  j["frame"] = frame_json(log);
-  j["bow"] = bow_json(out.saw_log.bow());
-  j["pattern_point_symmetric"] = r.symmetric;
-  j["chosen"] = out.chosen_is_given() ? "given" : "best";
-  j["best"] = ranked_json(out.saw_log, r.best);
-  j["horns_down"] = ranked_json(out.saw_log, r.horns_down);
-  j["horns_up"] = ranked_json(out.saw_log, r.horns_up);
-  j["gain_over_horns_down"] = r.gain_over_horns_down;
-  j["gain_over_horns_up"] = r.gain_over_horns_up;
-  Json ranked = Json::array();
-  for (const RankedPosition& p : r.ranked) ranked.push_back(ranked_json(out.saw_log, p));
-  j["ranked"] = ranked;
-  j["boards"] = boards_json(out.best_sawn, out.best_value, setup.rules, true);
-  if (out.given_sawn) {
-    j["given_position"] = position_json(*setup.position);
-    j["given_position"]["value"] = out.given_value->value;
-    j["given_position"]["scanner"] = scanner_json(out.saw_log, *setup.position);
-    // Raw over raw: a position off the grid has no smoothed value.
-    j["given_position"]["gain_over_horns_down"] =
-        r.horns_down.value > 0 ? out.given_value->value / r.horns_down.value - 1 : 0.0;
-    j["given_position"]["boards"] =
-        boards_json(*out.given_sawn, *out.given_value, setup.rules, true);
-  }
-  j["surface"] = {{"index", "(rotation × offsets_x + x) × offsets_y + y"},
-                  {"rotations_deg", r.rotations_deg},
-                  {"offsets_x_mm", r.offsets_x_mm},
-                  {"offsets_y_mm", r.offsets_y_mm},
-                  {"value", r.value},
-                  {"smoothed_value", r.smoothed}};
-  return j;
 }
 
 }  // namespace sawyer::sawing

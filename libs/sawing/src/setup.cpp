@@ -74,15 +74,16 @@ Result<LogPosition> parse_position(const std::string& s) {
     v.clear();
   }
   if (v.empty() || v.size() > 3)
-    return Error("--position", "'" + s + "' is not rot[,x[,y]] (degrees, mm, mm)");
+    return Error("SawNames::position", "'" + s + "' is not rot[,x[,y]] (degrees, mm, mm)");
   // A turn either way and offsets within the largest log (the optimiser's limits).
   if (std::abs(v[0]) > 360)
-    return Error("--position", "rotation " + part_text(v[0]) + "° is outside -360 to 360°");
+    return Error("SawNames::position", "rotation " + part_text(v[0]) + "° is outside -360 to 360°");
   for (size_t i = 1; i < v.size(); ++i)
     if (std::abs(v[i]) > kMaxOffsetMm)
-      return Error("--position", std::string(i == 1 ? "x" : "y") + " offset " + part_text(v[i]) +
-                                     " mm is outside -" + part_text(kMaxOffsetMm) + " to " +
-                                     part_text(kMaxOffsetMm) + " mm");
+      return Error("SawNames::position", std::string(i == 1 ? "x" : "y") + " offset " +
+                                             part_text(v[i]) + " mm is outside -" +
+                                             part_text(kMaxOffsetMm) + " to " +
+                                             part_text(kMaxOffsetMm) + " mm");
   LogPosition p;
   p.rotation_deg = v[0];
   if (v.size() > 1) p.offset_x_mm = v[1];

@@ -24,16 +24,16 @@ ScanSpread scan_spread(const LogModel& model) {
     if (!st.ok && (st.name == "pith" || st.name == "knots")) s.factor = 2.0;
   for (size_t i = 0; i < model.knots.size(); ++i) {
     const double d = model.knots[i].diameter.d_dead;
-    s.knots[i].diameter_sd_mm =
-        s.factor * std::max(kKnotDiameterSdMm, kKnotDiameterSdFraction * d);
+    s.knots[i].diameter_sd_mm = s.factor * std::max(kKnotDiameterSdMm, kKnotDiameterSdFraction * d);
     s.knots[i].r_dead_sd_mm = s.factor * kKnotRDeadSdMm;
   }
   char buf[200];
-  std::snprintf(buf, sizeof buf,
-                "knots from a scan: diameter σ %.0f mm (or %.0f %% above %.0f mm), r_dead σ %.0f mm%s",
-                s.factor * kKnotDiameterSdMm, 100 * kKnotDiameterSdFraction,
-                kKnotDiameterSdMm / kKnotDiameterSdFraction, s.factor * kKnotRDeadSdMm,
-                s.factor > 1 ? " (doubled: the scan's QA failed)" : "");
+  std::snprintf(
+      buf, sizeof buf,
+      "knots from a scan: diameter σ %.0f mm (or %.0f %% above %.0f mm), r_dead σ %.0f mm%s",
+      s.factor * kKnotDiameterSdMm, 100 * kKnotDiameterSdFraction,
+      kKnotDiameterSdMm / kKnotDiameterSdFraction, s.factor * kKnotRDeadSdMm,
+      s.factor > 1 ? " (doubled: the scan's QA failed)" : "");
   s.note = buf;
   return s;
 }

@@ -171,7 +171,8 @@ void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable&
       price[g] = prices.price(rules.grade_name(g), b.thickness_mm, b.width_mm);
     const BoardGrade g0 = grade_board(b, rules);
     double best = b.volume_m3 * price[g0.grade];
-    // The best price any better grade of this size fetches bounds what a shorter piece can be worth.
+    // The best price any better grade of this size fetches bounds what a shorter piece can be
+    // worth.
     double top = 0;
     for (int gi = 0; gi < g0.grade; ++gi) top = std::max(top, price[gi]);
     const double len = b.length_mm();
@@ -275,8 +276,8 @@ Result<PriceTable> prices_from_json(const std::string& text) {
   }
   if (auto lengths = j.find("lengths"); lengths != j.end()) {
     if (!lengths->is_object()) return Error("lengths", "expected an object {step_mm, min_mm}");
-    for (auto [key, dst] : {std::pair{"step_mm", &t.length_step_mm},
-                            std::pair{"min_mm", &t.min_length_mm}}) {
+    for (auto [key, dst] :
+         {std::pair{"step_mm", &t.length_step_mm}, std::pair{"min_mm", &t.min_length_mm}}) {
       auto it = lengths->find(key);
       if (it == lengths->end()) continue;
       if (!it->is_number() || !(it->get<double>() >= 0) || it->get<double>() > 12000)
@@ -287,7 +288,8 @@ Result<PriceTable> prices_from_json(const std::string& text) {
     // millimetres would be millions of pieces per board. Mills cut in steps of 300 mm or a foot.
     if (t.length_step_mm > 0 && t.length_step_mm < kMinLengthStepMm) {
       char buf[120];
-      std::snprintf(buf, sizeof buf, "a step of %g mm is under the %g mm allowed (0: no cross-cutting)",
+      std::snprintf(buf, sizeof buf,
+                    "a step of %g mm is under the %g mm allowed (0: no cross-cutting)",
                     t.length_step_mm, kMinLengthStepMm);
       return Error("lengths.step_mm", buf);
     }

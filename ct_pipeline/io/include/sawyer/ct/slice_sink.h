@@ -52,7 +52,7 @@ class SliceSink {
 // `out` is the folder to create (DICOM series and image stacks: one file per slice; volume
 // formats: one file in the folder, named volume.vti / volume.mha / volume.nrrd).
 Result<std::unique_ptr<SliceSink>> create_ct_writer(const std::filesystem::path& out,
-                                                     const VolumeGeometry& geometry,
-                                                     const WriteOptions& options);
+                                                    const VolumeGeometry& geometry,
+                                                    const WriteOptions& options);
 
 }  // namespace sawyer::ct

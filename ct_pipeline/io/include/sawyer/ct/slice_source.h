@@ -12,9 +12,9 @@
 //     use(s.hu);                                  // width * height floats, row-major, HU
 //   }
 //
-// Frames (DESIGN.md 3): x along a row (column index), y down the rows (row index), both in mm in
-// the slice plane from the centre of pixel (0, 0); z in mm along the log, 0 at the first slice,
-// increasing with slice index. Where that lies in the scanner is `origin`, `orientation` and
+// Frames (docs/architecture.md 3): x along a row (column index), y down the rows (row index), both
+// in mm in the slice plane from the centre of pixel (0, 0); z in mm along the log, 0 at the first
+// slice, increasing with slice index. Where that lies in the scanner is `origin`, `orientation` and
 // `slice_dir`; to_scanner_axes() (scanner_frame.h) turns an axial scan so that x and y run along
 // the scanner's +x and +y, which the scan pass relies on.
 #pragma once
@@ -37,20 +37,20 @@ enum class Format { kDicom, kTiffStack, kMultiPageTiff, kPngStack, kVti, kMetaIm
 // What make_uniform_z() did to put a source on an even z grid (all zero / false when the
 // source was even already, or only snapped within 1 % of a spacing).
 struct ZResampling {
-  bool resampled = false;     // slices come out interpolated along z
-  int source_slices = 0;      // slices in the file(s)
-  int invented_slices = 0;    // output slices standing in for missing ones (no source slice)
-  int gaps = 0;               // gaps with missing slices
-  double widest_gap_mm = 0;   // the widest distance between neighbouring slices present
-  double widest_gap_z0 = 0;   // where it starts (mm, relative to the first slice)
+  bool resampled = false;    // slices come out interpolated along z
+  int source_slices = 0;     // slices in the file(s)
+  int invented_slices = 0;   // output slices standing in for missing ones (no source slice)
+  int gaps = 0;              // gaps with missing slices
+  double widest_gap_mm = 0;  // the widest distance between neighbouring slices present
+  double widest_gap_z0 = 0;  // where it starts (mm, relative to the first slice)
 };
 
 // "DICOM series", "TIFF stack", ... for messages and `sawyer info`.
 const char* format_name(Format f);
 
 struct VolumeGeometry {
-  int width = 0;   // columns (x)
-  int height = 0;  // rows (y)
+  int width = 0;           // columns (x)
+  int height = 0;          // rows (y)
   double spacing_x = 0.0;  // mm between columns
   double spacing_y = 0.0;  // mm between rows
   // Slice positions along the log axis in mm, strictly increasing, z[0] == 0. After the
@@ -76,7 +76,7 @@ struct VolumeGeometry {
   // For DICOM with per-slice rescale these are the first slice's.
   double rescale_slope = 1.0;
   double rescale_intercept = 0.0;
-  int bits_stored = 16;          // 8, 12, 16 or 32 (float data)
+  int bits_stored = 16;  // 8, 12, 16 or 32 (float data)
   bool pixel_signed = false;
   ZResampling z_resampling;
 
@@ -147,12 +147,12 @@ struct OpenOptions {
 // file (.vti, .mha, .mhd, .nrrd, .nhdr, multi-page .tif/.tiff, or one DICOM file of a series,
 // which opens its folder). The result reads slices in z order on an even z grid.
 Result<std::unique_ptr<SliceSource>> open_ct(const std::filesystem::path& path,
-                                              const OpenOptions& options = {});
+                                             const OpenOptions& options = {});
 
 // Wraps a source whose z positions may be uneven: rejects or resamples according to `options`.
 // Duplicate positions are always an error. Sources with an even grid pass through unchanged.
 Result<std::unique_ptr<SliceSource>> make_uniform_z(std::unique_ptr<SliceSource> source,
-                                                     const OpenOptions& options);
+                                                    const OpenOptions& options);
 
 // One line on how the slices were put on an even z grid, for `run`/`scan` output, run.json and
 // the report, e.g. "resampled along z: 38 slices in the files, 41 out at 5.0 mm; 3 invented

@@ -3,8 +3,8 @@
 // pith outwards, ready for the knot-formula fit (knot_fit.h).
 //
 // Coordinates: the volume is unrolled around the pith track into (r, ω, z): pith distance r
-// (mm), azimuth ω = atan2(y − pith_y, x − pith_x) in [0, 2π) (DESIGN.md 3), height z (scanner
-// mm, the slice positions). A knot is then a near-straight tube rising slowly with r.
+// (mm), azimuth ω = atan2(y − pith_y, x − pith_x) in [0, 2π) (docs/architecture.md 3), height z
+// (scanner mm, the slice positions). A knot is then a near-straight tube rising slowly with r.
 //
 //   KnotDetectOptions o;
 //   std::vector<KnotTrace> traces = detect_knots(volume, stem, o);
@@ -45,7 +45,7 @@ struct KnotDetectOptions {
   double high_contrast = 250;
   double low_sigmas = 4;
   double high_sigmas = 7;
-  double min_length_mm = 4;  // shorter segmented runs along r are noise
+  double min_length_mm = 4;   // shorter segmented runs along r are noise
   double max_axis_slope = 2;  // steeper runs (|dz/dr|, least squares) lie along the log: no knot
   // Rings told from knots by shape (knot_detect.cpp): a shell's blob taller along the log than
   // sheet_z_mm and 2.5 times its width, or wider round it than sheet_arc_mm and three times its

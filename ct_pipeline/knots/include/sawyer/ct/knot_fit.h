@@ -1,6 +1,6 @@
 // The knot-formula fit with Ceres (issue 5): a KnotTrace's shells → a Knot of the log model
-// (DESIGN.md 4): axis z(r) = z0 + a·√r + b·r and ω(r) = ω0 + twist·ln r, the diameter profile
-// d(r) = d_dead·(r/r_dead)^p up to r_dead and d_dead beyond, r_dead and r_end.
+// (docs/architecture.md 4): axis z(r) = z0 + a·√r + b·r and ω(r) = ω0 + twist·ln r, the diameter
+// profile d(r) = d_dead·(r/r_dead)^p up to r_dead and d_dead beyond, r_dead and r_end.
 //
 // Robust loss on the axis residuals (knot flanks, neighbours in the whorl), bounds on the
 // parameters, and r_dead as a breakpoint profiled over candidate values (each candidate's

@@ -1,10 +1,10 @@
 // Found knots against true knots (issue 5's accuracy measure; bench/knot_bench and the tests).
 //
 // A pair has its azimuth within max_azimuth_rad and its height within max_height_mm at
-// r = min(50 mm, the true knot's r_end, the found knot's r_end), nearest first (each knot in one pair at most). True
-// knots count when they lie whole inside [z_lo, z_hi] and, for recall, are at least
-// min_diameter_mm thick; a found knot is spurious when it pairs with no true knot at all (true
-// knots outside the range included, so a knot cut by a section's end is not spurious).
+// r = min(50 mm, the true knot's r_end, the found knot's r_end), nearest first (each knot in one
+// pair at most). True knots count when they lie whole inside [z_lo, z_hi] and, for recall, are at
+// least min_diameter_mm thick; a found knot is spurious when it pairs with no true knot at all
+// (true knots outside the range included, so a knot cut by a section's end is not spurious).
 #pragma once
 
 #include <string>
@@ -22,15 +22,15 @@ struct KnotMatchOptions {
 };
 
 struct KnotMatch {
-  int truth_counted = 0;    // true knots inside the range, at least min_diameter_mm thick
-  int truth_found = 0;      // of which paired
+  int truth_counted = 0;  // true knots inside the range, at least min_diameter_mm thick
+  int truth_found = 0;    // of which paired
   int found = 0, spurious = 0;
   // Errors over the pairs whose true knot lies inside the range (any thickness).
-  std::vector<double> azimuth_deg;   // |Δω| at r = min(50, both r_end)
-  std::vector<double> height_mm;     // |Δz| at the same r
-  std::vector<double> r_dead_mm;     // true knots with a dead part before their end
-  std::vector<double> r_end_mm;      // true end = min(r_end, outer radius there)
-  double diameter_sum2 = 0;          // squared diameter errors every 2 mm over the common length
+  std::vector<double> azimuth_deg;  // |Δω| at r = min(50, both r_end)
+  std::vector<double> height_mm;    // |Δz| at the same r
+  std::vector<double> r_dead_mm;    // true knots with a dead part before their end
+  std::vector<double> r_end_mm;     // true end = min(r_end, outer radius there)
+  double diameter_sum2 = 0;         // squared diameter errors every 2 mm over the common length
   long diameter_count = 0;
   std::vector<std::string> missed, spurious_list;  // one line each
   std::vector<std::string> pairs;  // each pair's diameters, r_dead and r_end, true and found

@@ -6,7 +6,7 @@
 //   for each slice i: v.keep(i, slice, stem);         // any order, any thread (distinct i)
 //   float hu = v.at(i, x_mm, y_mm);                    // bilinear, air outside the crop
 //
-// Frames: scanner frame, mm (DESIGN.md 3); slice i lies at geometry.z[i].
+// Frames: scanner frame, mm (docs/architecture.md 3); slice i lies at geometry.z[i].
 #pragma once
 
 #include <cstdint>
@@ -20,8 +20,8 @@
 namespace sawyer::ct {
 
 struct LogPlane {
-  int x0 = 0, y0 = 0;          // pixel (x0, y0) of the slice is the plane's (0, 0)
-  int width = 0, height = 0;   // 0: nothing kept (no log in this slice)
+  int x0 = 0, y0 = 0;            // pixel (x0, y0) of the slice is the plane's (0, 0)
+  int width = 0, height = 0;     // 0: nothing kept (no log in this slice)
   std::vector<std::int16_t> hu;  // HU, clamped to [-1024, 32767]
 };
 

@@ -1,4 +1,4 @@
-// The phantom synthesiser: synthetic CT of a log model (DESIGN.md 6), with ground truth.
+// The phantom synthesiser: synthetic CT of a log model (docs/architecture.md 6), with ground truth.
 //
 // A Phantom places a LogModel in a virtual log scanner (offset, tilt, roll), and renders each
 // slice as float HU the way a scanner would report it: densities from the wood time field of
@@ -15,10 +15,10 @@
 //   ct::Slice s = ph.value()->render_slice(0);      // one slice, HU, deterministic
 //   auto sum = write_phantom(*ph.value(), "out/phantom", {.format = Format::kDicom});
 //
-// Frames (DESIGN.md 3). The *log frame* is the model's own (mm). The *scanner frame* here is the
-// CT image's: x = column · pixel, y = row · pixel (y down the image, from the centre of pixel
-// (0, 0)), z = 0 at the first slice, increasing with slice index; the file places pixel (0, 0)
-// of the first slice at geometry().origin (centred on the isocentre, z 1000 mm), so the scanner
+// Frames (docs/architecture.md 3). The *log frame* is the model's own (mm). The *scanner frame*
+// here is the CT image's: x = column · pixel, y = row · pixel (y down the image, from the centre of
+// pixel (0, 0)), z = 0 at the first slice, increasing with slice index; the file places pixel (0,
+// 0) of the first slice at geometry().origin (centred on the isocentre, z 1000 mm), so the scanner
 // proper is this frame shifted by the origin, which truth/log.json is in. A log point P maps to the
 // scanner as  S = T + M·(P − A), where A is the model's pith at the middle of the scanned range,
 // M = Ry(tilt_y)·Rx(tilt_x)·Rz(roll), and T puts A at the image centre + offset, half way along

@@ -29,11 +29,11 @@ struct KnotScanOptions {
 };
 
 struct KnotScan {
-  std::vector<Knot> knots;            // ids from 1, ordered by height at the pith
-  std::vector<KnotTrace> traces;      // the evidence of each kept knot, same order
-  std::vector<KnotFitReport> fits;    // same order
-  int traces_found = 0;               // detected before fitting
-  int duplicates = 0;                 // fitted knots dropped as another's double (knot_scan.cpp)
+  std::vector<Knot> knots;          // ids from 1, ordered by height at the pith
+  std::vector<KnotTrace> traces;    // the evidence of each kept knot, same order
+  std::vector<KnotFitReport> fits;  // same order
+  int traces_found = 0;             // detected before fitting
+  int duplicates = 0;               // fitted knots dropped as another's double (knot_scan.cpp)
   // Knot candidates rejected as rings (shell blobs shaped as sheets, runs sliding round the log;
   // detect.rejected_* has every reason) and the detection's signal, thresholds and timings.
   int rejected_as_rings = 0;

@@ -40,7 +40,7 @@ struct ScanOptions {
 };
 
 struct ScanResult {
-  LogModel log;  // scanner frame (place_in_scanner_frame), qa set
+  LogModel log;   // scanner frame (place_in_scanner_frame), qa set
   StemScan stem;  // the passes' records, in the slices' own axes (pixel (0, 0) at 0, 0)
   KnotScan knots;
   std::unique_ptr<LogVolume> volume;  // the voxels the knot pass read

@@ -91,11 +91,11 @@ struct QaSlice {
   double pith_residual_mm = 0;   // refined pith to the smoothed track
   double eccentricity = 0;       // pith to outline centroid / mean radius
   bool pith_suspect = false;
-  std::string pith_why;          // "rings weak", "off the track", "near the bark", ...
-  double filled_share = 0;       // outline azimuths filled in
+  std::string pith_why;     // "rings weak", "off the track", "near the bark", ...
+  double filled_share = 0;  // outline azimuths filled in
   double roughness_mm = 0;
   double jump_mm_per_mm = 0;
-  double at_edge_share = 0;      // outline azimuths at the image's edge
+  double at_edge_share = 0;  // outline azimuths at the image's edge
   // Outer wood minus this slice's bark level, over the wood's spread and as a share of the
   // wood-air span (NaN where no bark was seen: a debarked log, or bark no lighter than the wood).
   double bark_step_sigmas = std::numeric_limits<double>::quiet_NaN();
@@ -121,7 +121,7 @@ struct ScanQaDetail {
   double outline_bark_step_sigmas = std::numeric_limits<double>::quiet_NaN();
   double outline_bark_step_share = std::numeric_limits<double>::quiet_NaN();
   double knots_per_m = 0;
-  int knot_candidates_rejected = 0;          // traces not fitted
+  int knot_candidates_rejected = 0;           // traces not fitted
   int knot_candidates_rejected_as_rings = 0;  // shaped as rings (KnotScan::rejected_as_rings)
 };
 

@@ -14,9 +14,9 @@
 // they agree with the scan's. So a dried log, a shifted calibration or a windowed export is read
 // like a green log at the nominal calibration.
 //
-// The scan streams: slices are read once, in order (and those few before); memory holds the averaging window's slices
-// (about 2 x 20 mm of them), a 90 mm square crop around the pith of every slice (32 KB at
-// 0.8 mm) and the per-slice results.
+// The scan streams: slices are read once, in order (and those few before); memory holds the
+// averaging window's slices (about 2 x 20 mm of them), a 90 mm square crop around the pith of every
+// slice (32 KB at 0.8 mm) and the per-slice results.
 #pragma once
 
 #include <functional>
@@ -64,10 +64,10 @@ struct StemScanOptions {
   double converged_mm = 0.25;
   // Rings count as resolved where the ring profile's signal share (smoothed along z) reaches
   // this (clear rings score 0.95 and more, resolved but faint ones 0.65-0.8; a lock one ring
-  // off, onto a knot or onto noise 0.2-0.6 in the robustness sweep), and the ring pith lies within max_shape_offset of the log's radius of the shape
-  // centre (the pith lies inside the heart: 1-5 % of the radius off the outline's centre in
-  // most logs, 7 % in the real Gran_1 spruce; rings that line up farther off are a knot's, or
-  // noise locked onto a ring).
+  // off, onto a knot or onto noise 0.2-0.6 in the robustness sweep), and the ring pith lies within
+  // max_shape_offset of the log's radius of the shape centre (the pith lies inside the heart: 1-5 %
+  // of the radius off the outline's centre in most logs, 7 % in the real Gran_1 spruce; rings that
+  // line up farther off are a knot's, or noise locked onto a ring).
   double min_ring_signal = 0.6;
   double max_shape_offset = 0.12;
   // ... and where the ring period the profile shows is at least this many pixels: narrower
@@ -85,9 +85,9 @@ struct StemScanOptions {
 };
 
 struct StemSliceRecord {
-  double z = 0;               // mm, from the scan's geometry
-  PithResult pith_raw;        // the tracker's answer (first pass; not every slice is searched)
-  bool measured = false;      // contour and heartwood measured around `centre`
+  double z = 0;           // mm, from the scan's geometry
+  PithResult pith_raw;    // the tracker's answer (first pass; not every slice is searched)
+  bool measured = false;  // contour and heartwood measured around `centre`
   Vec2 centre;
   PithResult pith_refined;    // the last refinement pass's answer
   Vec2 pith;                  // after robust smoothing along z

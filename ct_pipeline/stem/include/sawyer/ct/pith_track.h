@@ -16,8 +16,8 @@
 // of the 2k + 1 slices around a slice has sqrt(2k + 1) less noise and the same rings. Slices
 // whose log cross-section differs much from the centre slice's (past a log end) are left out.
 //
-// Units: mm, scanner frame (DESIGN.md 3). A PithTracker is used by one thread; the functions
-// are pure and thread-safe.
+// Units: mm, scanner frame (docs/architecture.md 3). A PithTracker is used by one thread; the
+// functions are pure and thread-safe.
 #pragma once
 
 #include <cstdint>
@@ -126,8 +126,8 @@ class PithTracker {
     Slice slice;
     std::int64_t wood_cells = 0;  // coarse count of wood pixels, to recognise log ends
     WoodLevels levels;            // the slice's own (wood_levels)
-    PithResult pith;          // once decided
-    SliceCrop crop;           // once decided
+    PithResult pith;              // once decided
+    SliceCrop crop;               // once decided
     bool has_centre = false;
     Vec2 centre;
   };
@@ -148,7 +148,7 @@ class PithTracker {
   int every_ = 1;
   int pushed_ = 0;
   int full_searches_ = 0;
-  int next_ = 0;  // next index to decide
+  int next_ = 0;           // next index to decide
   std::deque<Held> held_;  // indices next_ - half_ .. pushed_ - 1 (those still needed)
   std::optional<Vec2> last_;
   std::optional<Vec2> pending_;  // a confident detection that jumped from last_
@@ -171,14 +171,11 @@ struct PithRefineOptions {
 // (so the rings near the pith stay sharp where the pith leans), searching near the track.
 // `crops`, `z` and `track` have one entry per slice; slices with an empty crop are not found,
 // nor those `which` (when given) marks false.
-std::vector<PithResult> refine_pith_track(const std::vector<SliceCrop>& crops,
-                                          const std::vector<double>& z,
-                                          const std::vector<Vec2>& track,
-                                          const VolumeGeometry& geometry,
-                                          const PithOptions& options,
-                                          const PithRefineOptions& refine,
-                                          const std::vector<std::vector<double>>* outlines = nullptr,
-                                          const std::vector<bool>* which = nullptr);
+std::vector<PithResult> refine_pith_track(
+    const std::vector<SliceCrop>& crops, const std::vector<double>& z,
+    const std::vector<Vec2>& track, const VolumeGeometry& geometry, const PithOptions& options,
+    const PithRefineOptions& refine, const std::vector<std::vector<double>>* outlines = nullptr,
+    const std::vector<bool>* which = nullptr);
 
 struct PithTrackOptions {
   // Half-width (mm along z) of the local linear fit; the pith of a log bends slowly.

@@ -32,13 +32,13 @@ struct WhorlPithOptions {
   // wood (noise and rings together), above the wood level.
   double noise_sigmas = 6.0;
   double spread_sigmas = 3.5;
-  double max_step_hu = 1100;      // brighter than the wood level by more: metal, not a knot
-  double min_length_mm = 8.0;     // a streak this long at least (major axis)
-  double min_elongation = 2.5;    // length over width
-  double min_angle_deg = 25.0;    // the widest pair of inlier streaks at least this far apart
-  double max_residual_mm = 3.0;   // inlier: the line passes this close to the meeting point
-  double line_error_mm = 2.0;     // a knot axis's own miss of the pith (curved, twisted knots)
-  int max_streaks = 24;           // the longest ones (a slice of hundreds is not a whorl)
+  double max_step_hu = 1100;     // brighter than the wood level by more: metal, not a knot
+  double min_length_mm = 8.0;    // a streak this long at least (major axis)
+  double min_elongation = 2.5;   // length over width
+  double min_angle_deg = 25.0;   // the widest pair of inlier streaks at least this far apart
+  double max_residual_mm = 3.0;  // inlier: the line passes this close to the meeting point
+  double line_error_mm = 2.0;    // a knot axis's own miss of the pith (curved, twisted knots)
+  int max_streaks = 24;          // the longest ones (a slice of hundreds is not a whorl)
 };
 
 struct WhorlStreak {
@@ -51,10 +51,10 @@ struct WhorlStreak {
 struct WhorlPith {
   bool found = false;
   Vec2 pith_mm;
-  int knots = 0;                  // inlier streaks
-  int distinct = 0;               // their distinct directions (10 degrees apart)
-  double residual_mm = 0;         // RMS distance of the inlier lines from pith_mm
-  double expected_error_mm = 0;   // residual over the streaks' count, at least half a pixel
+  int knots = 0;                     // inlier streaks
+  int distinct = 0;                  // their distinct directions (10 degrees apart)
+  double residual_mm = 0;            // RMS distance of the inlier lines from pith_mm
+  double expected_error_mm = 0;      // residual over the streaks' count, at least half a pixel
   std::vector<WhorlStreak> streaks;  // every candidate, for images and tests
 };
 
@@ -74,6 +74,7 @@ WhorlPith meet_streaks(std::vector<WhorlStreak> streaks, std::vector<double> wei
                        const WhorlPithOptions& options = {});
 
 WhorlPith whorl_pith(const SliceCrop& crop, const VolumeGeometry& geometry, Vec2 region_centre,
-                     double region_radius_mm, double noise_hu, const WhorlPithOptions& options = {});
+                     double region_radius_mm, double noise_hu,
+                     const WhorlPithOptions& options = {});
 
 }  // namespace sawyer::ct

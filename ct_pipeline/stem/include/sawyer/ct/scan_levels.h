@@ -31,16 +31,16 @@ namespace sawyer::ct {
 struct ScanLevels {
   // An air mode and a wood mode were found (the histogram looks like a log in air).
   bool valid = false;
-  double air_hu = -1000;     // air mode
-  double wood_hu = 0;        // dominant wood mode (the most log pixels)
-  double wood_low_hu = 0;    // lightest wood mode (heartwood where a dry core shows), else wood_hu
-  double wood_high_hu = 0;   // densest wood mode (wet sapwood where it shows), else wood_hu
+  double air_hu = -1000;    // air mode
+  double wood_hu = 0;       // dominant wood mode (the most log pixels)
+  double wood_low_hu = 0;   // lightest wood mode (heartwood where a dry core shows), else wood_hu
+  double wood_high_hu = 0;  // densest wood mode (wet sapwood where it shows), else wood_hu
   bool two_wood_modes = false;
   double noise_air_hu = 0;   // noise sigma in air (0 where air is clipped, a windowed export)
   double noise_wood_hu = 0;  // noise sigma in wood (with the finest ring texture)
   // Derived thresholds.
-  double log_hu = -700;      // air / log: 60 % of the way from air to the lightest wood mode
-  double dense_hu = 150;     // denser than any wood: the bed's belt, rails, clutter
+  double log_hu = -700;   // air / log: 60 % of the way from air to the lightest wood mode
+  double dense_hu = 150;  // denser than any wood: the bed's belt, rails, clutter
   // The same for the median of a few samples (the contour's test of the wood inside a surface):
   // its noise is a median's, not a pixel's, so a noisy scan does not lift it over the belt.
   double dense_median_hu = 150;
@@ -52,8 +52,8 @@ struct ScanLevels {
   bool dried = false;
   // Air sits at the data's lowest value (clipped: a windowed export).
   bool air_clipped = false;
-  double fraction_log = 0;   // share of the slice's pixels in the log (log_hu .. dense_hu)
-  std::string notes;         // what looked odd, for the QA verdict
+  double fraction_log = 0;  // share of the slice's pixels in the log (log_hu .. dense_hu)
+  std::string notes;        // what looked odd, for the QA verdict
   double noise_hu() const { return noise_wood_hu > 0 ? noise_wood_hu : noise_air_hu; }
 };
 

@@ -3,8 +3,9 @@
 // tracking and refinement along z are in pith_track.h, the assembly into a LogModel's Stem in
 // stem_scan.h.
 //
-// Frames (DESIGN.md 3): slice pixels (col, row) map to x = col * spacing_x, y = row * spacing_y
-// (mm, relative to the slice's pixel (0, 0)); azimuth omega = atan2(y - pith_y, x - pith_x).
+// Frames (docs/architecture.md 3): slice pixels (col, row) map to x = col * spacing_x, y = row *
+// spacing_y (mm, relative to the slice's pixel (0, 0)); azimuth omega = atan2(y - pith_y, x -
+// pith_x).
 //
 //   PithResult p = detect_pith(slice, geometry, {}, nullptr);      // no prior: whole slice
 //   PithResult q = detect_pith(next, geometry, {}, &p.pith_mm);    // prior: search near it
@@ -50,18 +51,18 @@ struct PithOptions {
 // the air-wood step or four wood spreads, whichever is more (knots and latewood in, the belt and
 // steel out). `options` fields that are set replace the window's ends.
 struct WoodLevels {
-  bool found = false;     // false: no two classes (an empty or flat slice)
-  double air_hu = 0;      // median below the split
-  double wood_hu = 0;     // median above it
-  double min_hu = 0;      // wood window
+  bool found = false;  // false: no two classes (an empty or flat slice)
+  double air_hu = 0;   // median below the split
+  double wood_hu = 0;  // median above it
+  double min_hu = 0;   // wood window
   double max_hu = 0;
-  double sigma_hu = 0;    // robust spread (1.4826 MAD) of the wood pixels: noise and ring signal
+  double sigma_hu = 0;  // robust spread (1.4826 MAD) of the wood pixels: noise and ring signal
   bool contains(double v) const { return v > min_hu && v < max_hu; }
 };
 WoodLevels wood_levels(const Slice& slice, const PithOptions& options);
 
 struct PithResult {
-  Vec2 pith_mm;          // sub-pixel
+  Vec2 pith_mm;           // sub-pixel
   double confidence = 0;  // 0..1: how sharply the evidence peaks
   bool found = false;     // false: no log in the slice (air only, or too small)
   // refine_pith_concentric only: the ring period (mm) its profile shows around the answer,
@@ -100,14 +101,14 @@ std::vector<PithCandidate> pith_candidates(const Slice& slice, const VolumeGeome
 double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 centre);
 
 // Ring-profile refinement: the centre within search_mm of `start` around which the slice's
-// annual rings line up best. For each candidate centre the wood within ring_max_mm is binned by ring
-// radius and the energy of the binned profile's ring-scale detail is scored (a matched filter
+// annual rings line up best. For each candidate centre the wood within ring_max_mm is binned by
+// ring radius and the energy of the binned profile's ring-scale detail is scored (a matched filter
 // for concentric rings: every pixel of a ring adds coherently, where per-pixel gradient
 // directions drown in noise); pixels far from the wood level (knots, the heartwood step,
 // cracks) are left out. With `outline` (the outer radius under bark at equally spaced azimuths
 // around `start`) the rings are taken as homothetic to it about the pith, as the log model's
-// stem time has them (DESIGN.md 5); without, as circles, which leans towards the centre of an
-// eccentric section by a fraction of a millimetre. Best on a slice averaged along z
+// stem time has them (docs/architecture.md 5); without, as circles, which leans towards the centre
+// of an eccentric section by a fraction of a millimetre. Best on a slice averaged along z
 // (pith_track.h). confidence: signal share of the profile energy (0..1).
 inline constexpr double kRingProfileMaxMm = 24.0;
 PithResult refine_pith_concentric(const Slice& slice, const VolumeGeometry& geometry, Vec2 start,

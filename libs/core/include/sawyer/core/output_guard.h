@@ -58,8 +58,7 @@ class OutputLock {
   // check_output, then the lock, then the sweep. Refuses at once if another process holds it.
   static Result<OutputLock> acquire(const OutputRequest& req);
   // The lock alone (for commands that write inside a folder they were given, e.g. the report).
-  static Result<OutputLock> lock_only(const std::filesystem::path& path,
-                                      const std::string& option);
+  static Result<OutputLock> lock_only(const std::filesystem::path& path, const std::string& option);
 
   OutputLock(OutputLock&& other) noexcept;
   OutputLock& operator=(OutputLock&& other) noexcept;

@@ -1,6 +1,6 @@
 // Error values for bad data and I/O.
 //
-// Sawyer reports problems with input in three tiers (STYLE.md 7): programmer mistakes assert,
+// Sawyer reports problems with input in three tiers (docs/style.md 7): programmer mistakes assert,
 // bad data or I/O returns an Error that says where (file, key, slice, knot), and only main()
 // turns an Error into a message and an exit code. Nothing below apps/ throws across a library
 // boundary or calls exit().
@@ -38,8 +38,8 @@ class Error {
 template <typename T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : v_(std::move(value)) {}        // NOLINT(google-explicit-constructor)
-  Result(Error error) : v_(std::move(error)) {}    // NOLINT(google-explicit-constructor)
+  Result(T value) : v_(std::move(value)) {}      // NOLINT(google-explicit-constructor)
+  Result(Error error) : v_(std::move(error)) {}  // NOLINT(google-explicit-constructor)
 
   bool ok() const { return v_.index() == 0; }
   explicit operator bool() const { return ok(); }

@@ -69,9 +69,9 @@ class WoodField {
     double z_ = 0;
     Vec2 pith_;
     double max_radius_ = 0;
-    std::vector<float> radius_;        // outer radius at n equally spaced azimuths
-    std::vector<int> knots_;           // candidate knots at this height
-    std::vector<float> tracks_;        // per candidate: axis x, y, z, azimuth every 0.5 mm of r
+    std::vector<float> radius_;  // outer radius at n equally spaced azimuths
+    std::vector<int> knots_;     // candidate knots at this height
+    std::vector<float> tracks_;  // per candidate: axis x, y, z, azimuth every 0.5 mm of r
     std::vector<int> track_offset_;
   };
   Slice slice(double z) const;
@@ -89,10 +89,10 @@ class WoodField {
   };
   // One knot's contribution at a point: shared by sample() and Slice::sample().
   struct KnotEval {
-    float t_b;       // knot time, or 1e30 beyond r_end
-    float delta;     // modified amount of smoothing
-    float depth;     // dist / rho
-    bool inside;     // in the knot's wood
+    float t_b;    // knot time, or 1e30 beyond r_end
+    float delta;  // modified amount of smoothing
+    float depth;  // dist / rho
+    bool inside;  // in the knot's wood
     bool dead;
   };
   KnotEval eval_knot(int i, float r, float t_s, float R, const Vec3& p, const Vec3& axis,

@@ -13,8 +13,8 @@
 //   knots.exr        width 3, height n_knots, float32 R, G, B, A (omitted when n_knots is 0):
 //                    texel 0 = (z0, a, b, omega0), texel 1 = (twist, r_dead, r_end, d_dead),
 //                    texel 2 = (d_exp, id, fit_rms_mm, support).
-// Units: mm and rad (DESIGN.md 3). The JSON keeps its numbers at full double precision; the
-// images at float32. See docs/maps.md.
+// Units: mm and rad (docs/architecture.md 3). The JSON keeps its numbers at full double precision;
+// the images at float32. See docs/maps.md.
 //
 //   Status st = export_float_maps(log, "out/float_maps");
 //   Result<LogModel> back = import_float_maps("out/float_maps");  // equal to float32 rounding

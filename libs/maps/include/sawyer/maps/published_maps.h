@@ -14,8 +14,8 @@
 // truncate, so up to a whole step there). Knot diameters are not carried: the sidecar keeps
 // them, and without it the importer derives them from the published renderer's growth rule.
 //
-// Frames: the importer returns a model in our frames (DESIGN.md 3); the stem's z_begin() is the
-// maps' height 0 (shifted back to the original frame when the sidecar says where that was).
+// Frames: the importer returns a model in our frames (docs/architecture.md 3); the stem's z_begin()
+// is the maps' height 0 (shifted back to the original frame when the sidecar says where that was).
 //
 // Failure behaviour: errors are one line naming the file and the problem; nothing throws. The
 // exporter writes the whole folder atomically: on failure no folder (and no half-written one)

@@ -17,7 +17,8 @@
 namespace sawyer {
 
 // `folder` holds <name>_pith.json, <name>_radii.json and <name>_knots.json.
-Result<LogModel> import_gran1(const std::filesystem::path& folder, const std::string& name = "Gran_1");
+Result<LogModel> import_gran1(const std::filesystem::path& folder,
+                              const std::string& name = "Gran_1");
 
 // The paper renderer's knot radius at pith distance r (mm) for a stem of local radius R (mm)
 // and map scale rmin (mm): (0.2·rmin − 0.1·√(r·rmin)) · r / R, without its noise term.

@@ -1,8 +1,8 @@
 // A generator of realistic random logs (pine and spruce), deterministic by seed.
 //
-// Ranges follow DESIGN.md section 6 and the sawmill literature: logs 3–6 m long, 12–45 cm in
-// diameter under bark, taper, ovality, sweep, pith wander; pine whorls every 0.3–0.6 m with 3–6
-// knots each, spruce whorls plus smaller interwhorl knots; knots sound near the pith and dead
+// Ranges follow docs/architecture.md section 6 and the sawmill literature: logs 3–6 m long, 12–45
+// cm in diameter under bark, taper, ovality, sweep, pith wander; pine whorls every 0.3–0.6 m with
+// 3–6 knots each, spruce whorls plus smaller interwhorl knots; knots sound near the pith and dead
 // further out on the lower log, with realistic diameters. The same options and seed give the
 // same log on every machine (no std::uniform_*_distribution, whose output is implementation
 // defined). Ranges, their sources, and the rounding of the output are documented at the top of

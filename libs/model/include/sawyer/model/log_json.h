@@ -77,6 +77,8 @@ std::string log_to_json(const LogModel& log);
 // The "qa" object alone (run.json carries the same), and back.
 std::string qa_json_text(const ScanQa& qa);
 Result<ScanQa> qa_from_json_text(const std::string& text);
+// The "scanner_frame" object alone (sawing.json and run.json carry the same).
+std::string scanner_frame_json_text(const ScannerFrame& frame);
 Result<LogModel> log_from_json(const std::string& text);
 
 // File versions; errors are prefixed with the file name. write_log_json is atomic. The reader

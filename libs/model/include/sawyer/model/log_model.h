@@ -1,10 +1,11 @@
 // The log model: what the CT pipeline produces, the renderer draws, the sawing optimiser cuts
-// and the phantom turns back into CT (DESIGN.md section 4).
+// and the phantom turns back into CT (docs/architecture.md section 4).
 //
 // Frames and units: millimetres and radians. x, y are the CT scanner's x and y (mm, exactly as
 // the CT file places its pixels) in the slice plane; z runs along the log from the first slice
-// (docs/formats.md, "The scanner frame"); ScannerFrame maps z back to the scanner's z. Azimuth ω = atan2(y − pith_y, x − pith_x) in [0, 2π), counter-clockwise from +x seen
-// from +z. Pith distance r = horizontal distance from the pith at that height.
+// (docs/formats.md, "The scanner frame"); ScannerFrame maps z back to the scanner's z. Azimuth ω =
+// atan2(y − pith_y, x − pith_x) in [0, 2π), counter-clockwise from +x seen from +z. Pith distance r
+// = horizontal distance from the pith at that height.
 //
 //   LogModel log = ...;
 //   double R = log.stem.radius_at(omega, z);           // outer radius under bark, mm
@@ -27,10 +28,10 @@ namespace sawyer {
 // centred on z_i = z0_mm + i·dz_mm, so the log spans [z0 − dz/2, z0 + (n − ½)·dz] and its
 // length is n·dz.
 struct Stem {
-  double z0_mm = 0.0;  // height of sample 0
-  double dz_mm = 10.0;  // sample step along z (> 0)
-  int n_angles = 360;  // angular samples per height; angle k is at ω = 2πk / n_angles
-  std::vector<Vec2> pith;                  // pith (x, y) per height, mm
+  double z0_mm = 0.0;      // height of sample 0
+  double dz_mm = 10.0;     // sample step along z (> 0)
+  int n_angles = 360;      // angular samples per height; angle k is at ω = 2πk / n_angles
+  std::vector<Vec2> pith;  // pith (x, y) per height, mm
   std::vector<std::vector<double>> radius;  // outer radius under bark [height][angle], mm
   // Optional heartwood radius [height][angle], mm; empty when unknown.
   std::vector<std::vector<double>> heartwood;
@@ -70,7 +71,7 @@ struct KnotDiameter {
   double exponent = 1.0;  // growth exponent p (> 0)
 };
 
-// One knot, the knot formula of DESIGN.md section 4, in the stem's frame:
+// One knot, the knot formula of docs/architecture.md section 4, in the stem's frame:
 //   axis height   z(r) = z0 + a·√r + b·r
 //   axis azimuth  ω(r) = omega0 + twist·ln(r)        (r in mm, ln taken at max(r, 1))
 // The knot starts at the pith (r = 0) and ends at r_end; it is sound (intergrown) for
@@ -119,11 +120,11 @@ struct MaterialSample {
 // directions are kept as the CT file gave them, for the record (the scan mirrors or transposes
 // slices whose rows do not run along +x; docs/ct_input.md).
 struct ScannerFrame {
-  Vec3 origin_mm;       // scanner position of the centre of pixel (0, 0) of the first slice
+  Vec3 origin_mm;         // scanner position of the centre of pixel (0, 0) of the first slice
   Vec3 row_dir{1, 0, 0};  // the file's direction along a row (increasing column)
   Vec3 col_dir{0, 1, 0};  // the file's direction down a column (increasing row)
-  double z0_mm = 0.0;   // scanner z of the model's z = 0 (the first slice)
-  double z_dir = 1.0;   // +1: z grows with the scanner's z; -1: against it
+  double z0_mm = 0.0;     // scanner z of the model's z = 0 (the first slice)
+  double z_dir = 1.0;     // +1: z grows with the scanner's z; -1: against it
 
   double scanner_z(double z) const { return z0_mm + z_dir * z; }
   Vec3 to_scanner(const Vec3& p) const { return {p.x, p.y, scanner_z(p.z)}; }
@@ -134,9 +135,9 @@ struct ScannerFrame {
 // scan has none.
 struct ScanQa {
   struct Stage {
-    std::string name;         // "levels", "pith", "outline", "heartwood", "knots"
-    bool ok = true;           // false: this stage's result is not to be trusted
-    double confidence = 1.0;  // 0..1
+    std::string name;                // "levels", "pith", "outline", "heartwood", "knots"
+    bool ok = true;                  // false: this stage's result is not to be trusted
+    double confidence = 1.0;         // 0..1
     std::vector<std::string> notes;  // what was seen, one line each
   };
   bool trusted = true;                // false: at least one stage failed its checks

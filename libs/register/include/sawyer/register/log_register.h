@@ -113,8 +113,9 @@ class LogRegister {
 std::filesystem::path default_register_path();
 
 // The register a command uses: `db_option` (its --db) if given, else default_register_path(),
-// else an Error saying how to name one (`option` is the command's flag for it, e.g. "--db").
-Result<std::filesystem::path> register_path(const std::string& db_option,
-                                            const std::string& option = "--db");
+// else an Error saying how to name one: `option` is the caller's name for the register's path
+// (the command line's "--db"), `off_option` its way to run without one ("" when it has none).
+Result<std::filesystem::path> register_path(const std::string& db_option, const std::string& option,
+                                            const std::string& off_option);
 
 }  // namespace sawyer::reg

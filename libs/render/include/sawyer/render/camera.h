@@ -1,4 +1,5 @@
-// Cameras and 4x4 matrices for the renderer, in the log frame (DESIGN.md 3: mm, z along the log).
+// Cameras and 4x4 matrices for the renderer, in the log frame (docs/architecture.md 3: mm, z along
+// the log).
 //
 //   Camera c = Camera::orbit({0, 0, 2000}, 3000.0, 0.3, 0.4);   // perspective, looks at the target
 //   Camera f = Camera::plane_view(face);                          // ortho, a plane filling the

@@ -1,4 +1,4 @@
-// What the renderer draws, in the log frame (DESIGN.md 3: mm, radians, z along the log).
+// What the renderer draws, in the log frame (docs/architecture.md 3: mm, radians, z along the log).
 //
 //   Board b = Board::from_string("0,30,150,50,0,0,4000").value();  // x,y,w,t,rot(deg),z0,z1
 //   Scene s;
@@ -53,7 +53,7 @@ struct Board {
 };
 
 // A longitudinal section: the plane containing the log's mean pith line at azimuth `angle`
-// (rad, DESIGN.md 3), shifted by `offset` mm along its normal; spans the whole log.
+// (rad, docs/architecture.md 3), shifted by `offset` mm along its normal; spans the whole log.
 struct LongitudinalSection {
   double angle = 0;
   double offset = 0;

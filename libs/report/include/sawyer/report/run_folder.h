@@ -2,7 +2,8 @@
 //
 //   <out>/scan/log.json   the log model (sawyer-log/1)
 //   <out>/sawing.json     `sawyer saw`'s results (sawyer-sawing/1), plus "chosen": "best"|"given"
-//   <out>/run.json        provenance (sawyer-run/1); optional, as is every key but "format"
+//   <out>/run.json        provenance (sawyer-run/1); optional, as is every key but "format";
+//                         written by write_run_file below
 //
 //   Result<RunFolder> run = load_run_folder("out/");
 //   if (!run) { std::cerr << run.error().message() << "\n"; ... }  // names the file and problem
@@ -10,6 +11,7 @@
 
 #include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +19,7 @@
 #include "sawyer/model/log_model.h"
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/sawing_file.h"
 
 namespace sawyer::report {
 
@@ -37,64 +40,32 @@ struct RunInfo {
   std::vector<Stage> stages;
 };
 
-// A log position with its value (currency) at the position and, where the optimiser gave one,
-// its expected value under the positioning error.
-struct PositionValue {
-  sawing::LogPosition pos;
-  double value = 0;
-  double smoothed_value = 0;
-  bool has_smoothed = false;
-  // The same position in the scanner frame ("scanner"; absent in older files): the turn from
-  // the log's orientation in the scanner and the pattern centre (x, y, z) at the log's two ends.
-  bool has_scanner = false;
-  double turn_deg = 0;
-  std::array<Vec3, 2> centre_at_ends{};
+// run.json as `sawyer run` writes it: what RunInfo reads back, and what only the file keeps for
+// people and other tools (how the reader resampled z, the scanner frame, the slice and knot
+// counts, the scan's QA verdict).
+struct RunRecord {
+  RunInfo info;
+  struct ZResampling {
+    bool resampled = false;
+    int source_slices = 0, invented_slices = 0, gaps = 0;
+    double widest_gap_mm = 0, widest_gap_z0_mm = 0;
+  } z_resampling;
+  std::optional<ScannerFrame> scanner_frame;
+  size_t slices = 0, knots = 0;
+  std::optional<ScanQa> qa;
 };
 
-// The log's bow as the sawing file states it ("bow"; absent in older files).
-struct BowRecord {
-  bool present = false;
-  double arc_sagitta_mm = 0, chord_sweep_mm = 0, min_bow_mm = 0;
-  bool straight = false;
-};
+// run.json's one writer (its reader is load_run_folder): the text, and the file written
+// atomically.
+std::string run_json_text(const RunRecord& run);
+Status write_run_file(const RunRecord& run, const std::filesystem::path& path);
 
-// One board of sawing.json at the chosen position.
-struct BoardRecord {
-  std::string name;
-  double thickness_mm = 0, width_mm = 0;
-  sawing::ThicknessAxis thickness_axis = sawing::ThicknessAxis::kU;
-  double u_mm = 0, v_mm = 0;            // centre in the pattern frame
-  double z_begin_mm = 0, z_end_mm = 0;  // trimmed, log frame
-  double volume_m3 = 0;
-  std::string grade, limited_by;
-  double price_per_m3 = 0, value = 0;
-  int knots = 0, dead_knots = 0;  // knot crossings on its long sides (when sawing.json lists them)
-  double max_wane_mm = 0;         // largest wane over its sides
-  // Cross-cut to value ("offcuts_mm"): the pieces cut off its sawn length at z_begin and z_end.
-  double offcut_begin_mm = 0, offcut_end_mm = 0;
-  double length_mm() const { return z_end_mm - z_begin_mm; }
-  // limited_by, and the offcuts where the board was cross-cut ("…; cross-cut, 0.60 m off at z 0.00 m").
-  std::string limit_and_offcuts() const;
-};
-
-// The optimiser's value grid, flat index (rotation × n_x + x) × n_y + y.
-struct ValueSurface {
-  std::vector<double> rotations_deg, offsets_x_mm, offsets_y_mm;
-  std::vector<double> value, smoothed_value;
-  bool empty() const { return value.empty(); }
-};
-
-// sawing.json.
-struct SawingRecord {
-  std::string log_id, pattern, grading, prices, currency;
-  PositionValue best, horns_down, horns_up;
-  double gain_over_horns_down = 0, gain_over_horns_up = 0;  // of the best's expected value
-  bool chosen_given = false;                                // "chosen": "given"
-  PositionValue chosen;                                     // best or given_position
-  BowRecord bow;
-  std::vector<BoardRecord> boards;                          // at the chosen position
-  ValueSurface surface;
-};
+// sawing.json's records: owned by the sawing library (sawyer/sawing/sawing_file.h).
+using sawing::BoardRecord;
+using sawing::BowRecord;
+using sawing::PositionValue;
+using sawing::SawingRecord;
+using sawing::ValueSurface;
 
 struct RunFolder {
   std::filesystem::path dir;

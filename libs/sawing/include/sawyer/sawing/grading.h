@@ -1,4 +1,5 @@
-// Board grading from rule tables read from data files (DESIGN.md section 9, docs/sawing.md).
+// Board grading from rule tables read from data files (docs/architecture.md section 9,
+// docs/sawing.md).
 //
 // A rule set is a list of grades, best first. Each grade limits, per face and per edge of a
 // board: the size of the largest sound and dead knot (allowed = mm + per_width × the side's

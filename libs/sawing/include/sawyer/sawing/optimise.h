@@ -90,7 +90,7 @@ struct OptimiseResult {
   int threads = 1;
   int model_draws = 0;      // draws the values averaged over (0 when the model had no spread)
   std::string spread_note;  // ScanSpread::note, when draws were used
-  double seconds = 0;  // wall clock of the grid evaluation
+  double seconds = 0;       // wall clock of the grid evaluation
 };
 
 // Smooths a rotation × x × y grid in place (see above). `mirror_on_wrap`: the 180° case.

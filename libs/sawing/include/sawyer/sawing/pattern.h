@@ -1,5 +1,5 @@
-// Sawing patterns: boards in the cross-section, kerf and wane rules (DESIGN.md section 9,
-// docs/sawing.md).
+// Sawing patterns: boards in the cross-section, kerf and wane rules (docs/architecture.md section
+// 9, docs/sawing.md).
 //
 // Pattern frame: u across the log (horizontal, +u to the right seen from +z), v up, both in mm,
 // origin on the log's mean pith line once the log is positioned (see sawing.h). Every board is an

@@ -1,5 +1,6 @@
 // Virtual sawing: a log model at a position, cut by a pattern into boards, each with its length,
-// volume, wane and the knots on its four long sides (DESIGN.md section 9, docs/sawing.md).
+// volume, wane and the knots on its four long sides (docs/architecture.md section 9,
+// docs/sawing.md).
 //
 // Frames (mm, degrees in the API): the pattern frame (u, v, z) has z along the log as in the log
 // model, origin on the log's mean pith line (the least-squares line through the pith samples),
@@ -83,7 +84,8 @@ struct ScannerPosition {
   Vec2 slope;             // d centre / d scanner z
   double centre_z = 0.0;  // scanner z, mm
   Vec2 centre_at(double scanner_z) const {
-    return {centre.x + slope.x * (scanner_z - centre_z), centre.y + slope.y * (scanner_z - centre_z)};
+    return {centre.x + slope.x * (scanner_z - centre_z),
+            centre.y + slope.y * (scanner_z - centre_z)};
   }
 };
 

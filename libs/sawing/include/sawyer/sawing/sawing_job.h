@@ -78,10 +78,4 @@ std::string saw_setup_text(double turn_deg, const std::array<Vec3, 2>& pattern_c
 // [z_begin, z_end] of its sawn [sawn_begin, sawn_end] (trim_to_value), for the board tables.
 std::string offcut_note(double sawn_begin, double sawn_end, double z_begin, double z_end);
 
-// The `sawyer-sawing/1` file: names, options, best / horns-down / horns-up with their values,
-// gains, ranked positions, the boards at the best position (with details), the given position
-// and its boards, "chosen" ("best" | "given"), and the value surface.
-nlohmann::ordered_json sawing_file_json(const LogModel& log, const SawSetup& setup,
-                                        const SawingOutcome& outcome);
-
 }  // namespace sawyer::sawing

@@ -25,7 +25,7 @@
 namespace sawyer::sawing {
 
 // Spread of a fitted knot, from the robustness sweep's errors.
-inline constexpr double kKnotDiameterSdMm = 2.0;      // at least; 8 % of the diameter above 25 mm
+inline constexpr double kKnotDiameterSdMm = 2.0;  // at least; 8 % of the diameter above 25 mm
 inline constexpr double kKnotDiameterSdFraction = 0.08;
 inline constexpr double kKnotRDeadSdMm = 12.0;
 

@@ -14,7 +14,9 @@ namespace sawyer::test {
 // angles.
 inline LogModel synthetic_log(
     double length, const std::function<double(double)>& radius,
-    const std::function<Vec2(double)>& pith = [](double) { return Vec2{0, 0}; }) {
+    const std::function<Vec2(double)>& pith = [](double) {
+      return Vec2{0, 0};
+    }) {
   LogModel log;
   log.id = "synthetic";
   log.stem.dz_mm = 10.0;

@@ -36,8 +36,8 @@ class TempDir {
 // Runs `command` with /bin/sh; returns its exit code (-1 if it did not exit), stdout+stderr in
 // *output.
 int run_command(const std::string& command, std::string* output);
-// Runs the `sawyer` binary ($SAWYER_BIN, else the one built with the tests) with `args`; returns the exit code, stdout+stderr in
-// *output.
+// Runs the `sawyer` binary ($SAWYER_BIN, else the one built with the tests) with `args`; returns
+// the exit code, stdout+stderr in *output.
 int run_sawyer(const std::string& args, std::string* output);
 // The `sawyer` binary run_sawyer runs, for tests that start it themselves.
 std::string sawyer_bin();

@@ -2,10 +2,10 @@
 // beside one valid slice of the same series (32 x 32, signed 16-bit, z = 0), and the folder goes
 // through open_ct() and read() of every slice, so the structural walk, GDCM's header parse,
 // the series checks, the native fast path and GDCM's decoders all see the input.
-// Seeds (tests/corpus/fuzz/fuzz_dicom/) are slices of that series at z = 1 in every transfer
+// Seeds (tests/fuzz/corpus/fuzz_dicom/) are slices of that series at z = 1 in every transfer
 // syntax Sawyer reads, so mutations reach pixel decoding.
 //
-//   build-fuzz/ct_pipeline/fuzz/fuzz_dicom -max_total_time=180 corpus/ tests/corpus/fuzz/fuzz_dicom
+//   build-fuzz/tests/fuzz/fuzz_dicom -max_total_time=180 corpus/ tests/fuzz/corpus/fuzz_dicom
 #include <unistd.h>
 
 #include <cstddef>

@@ -4,7 +4,7 @@
 //   1: volume.vti (VTK XML image data);
 //   2: volume.nrrd (NRRD header and data in one file);
 //   3: volume.nhdr (a detached NRRD header; its data file, data.raw, holds 16 x 16 x 3 shorts).
-// Seeds: tests/corpus/fuzz/fuzz_vtk_volume/ (a mode byte followed by a valid file).
+// Seeds: tests/fuzz/corpus/fuzz_vtk_volume/ (a mode byte followed by a valid file).
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>

@@ -3,7 +3,7 @@
 // exception", a sidecar that parses must hold what the reader relies on: spacings within the
 // limits, z positions finite, strictly increasing, no closer than the smallest spacing and
 // within the longest z extent, file names inside the stack's folder; anything else aborts.
-// Seeds: tests/corpus/fuzz/fuzz_sidecar/ (valid and nearly valid sidecars).
+// Seeds: tests/fuzz/corpus/fuzz_sidecar/ (valid and nearly valid sidecars).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>

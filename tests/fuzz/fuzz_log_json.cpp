@@ -2,7 +2,7 @@
 // log_from_json, the path every command's loader takes after reading the file (read_log_json).
 // A model that is accepted must be valid, must write and read back to the same text, and must
 // answer the queries the sawing and rendering code make of it without a fault.
-// Seeds: tests/corpus/fuzz/fuzz_log_json/ (small logs cut from the bundled samples).
+// Seeds: tests/fuzz/corpus/fuzz_log_json/ (small logs cut from the bundled samples).
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>

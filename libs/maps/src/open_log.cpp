@@ -1,11 +1,14 @@
-#include "log_source.h"
+// Opening a log model from any of the sources Sawyer reads (see open_log.h).
+#include "sawyer/maps/open_log.h"
 
-#include "sawyer/model/gran1_import.h"
-#include "sawyer/model/log_json.h"
+#include "sawyer/maps/float_maps.h"
+
 #include "sawyer/maps/float_maps.h"
 #include "sawyer/maps/published_maps.h"
+#include "sawyer/model/gran1_import.h"
+#include "sawyer/model/log_json.h"
 
-namespace sawyer::app {
+namespace sawyer::maps {
 namespace fs = std::filesystem;
 
 namespace {
@@ -43,7 +46,7 @@ Result<std::string> detect_log_source(const fs::path& path) {
                "<name>_pith.json stem-bank files");
 }
 
-Result<LogModel> load_log(const fs::path& path) {
+Result<LogModel> open_log(const fs::path& path) {
   Result<std::string> kind = detect_log_source(path);
   if (!kind) return kind.error();
   const std::string& k = kind.value();
@@ -55,4 +58,4 @@ Result<LogModel> load_log(const fs::path& path) {
   return Error(path.string(), k + " are not supported by this build");
 }
 
-}  // namespace sawyer::app
+}  // namespace sawyer::maps

@@ -3,7 +3,7 @@
 //   0: a pattern (sawyer-pattern/1, read_pattern_file);
 //   1: grading rules (sawyer-grading/1, read_grading_file);
 //   2: prices (sawyer-prices/1, read_price_file).
-// Seeds: tests/corpus/fuzz/fuzz_sawing_files/ (a mode byte followed by a valid file).
+// Seeds: tests/fuzz/corpus/fuzz_sawing_files/ (a mode byte followed by a valid file).
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>

@@ -5,7 +5,7 @@
 //   1: slice 1 of a PNG stack (likewise);
 //   2: the sidecar sawyer_stack.json of a valid TIFF stack;
 //   3: a multi-page TIFF (with a valid sidecar beside it).
-// Seeds: tests/corpus/fuzz/fuzz_image_stack/ (a mode byte followed by a valid file).
+// Seeds: tests/fuzz/corpus/fuzz_image_stack/ (a mode byte followed by a valid file).
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>

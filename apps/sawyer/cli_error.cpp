@@ -1,0 +1,37 @@
+#include "cli_error.h"
+
+#include <iostream>
+
+#include "sawyer/core/option_names.h"
+
+namespace sawyer::app {
+namespace {
+
+// Library option → flag, for every option a library names in its messages.
+constexpr OptionName kFlags[] = {
+    {"rot_step_deg", "--rot-step"},
+    {"offset_x_max_mm", "--offsets"},
+    {"offset_x_step_mm", "--offset-step"},
+    {"offset_y_max_mm", "--offsets-y"},
+    {"offset_y_step_mm", "--offset-y-step"},
+    {"sigma_rot_deg", "--sigma-rot"},
+    {"sigma_offset_mm", "--sigma-offset"},
+    {"model_draws", "--scan-draws"},
+    {"SawNames::position", "--position"},
+    {"ImageSize", "--size"},
+    {"FaceLayout::supersample", "--supersample"},
+    {"face_mask", "--face"},
+    {"Board::from_string", "--board"},
+    {"shard_spec", "--shard"},
+};
+
+}  // namespace
+
+std::string with_flags(const std::string& text) { return with_option_names(text, kFlags); }
+
+int fail(const Error& e) {
+  std::cerr << "sawyer: " << with_flags(e.message()) << "\n";
+  return 1;
+}
+
+}  // namespace sawyer::app

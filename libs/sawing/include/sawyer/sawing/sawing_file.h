@@ -1,0 +1,123 @@
+// The sawing file, "sawyer-sawing/1" (docs/sawing.md, docs/formats.md): its one writer and its
+// one reader. `sawyer saw` and `sawyer run` write a whole file (sawing_file_json: the options, the
+// best, horns-down and horns-up positions, the ranked positions, the boards at the chosen
+// position and the value surface); the viewer saves one position with its boards
+// (position_file_json). The reader gives both back as a SawingRecord: the report reads a run's
+// sawing.json with it, the viewer a saved position.
+//
+//   Result<SawingRecord> s = read_sawing_file("out/sawing.json");
+//   if (!s) { std::cerr << s.error().message() << "\n"; ... }  // names the file and the key
+//   const LogPosition& p = s.value().chosen.pos;
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "sawyer/core/result.h"
+#include "sawyer/model/log_model.h"
+#include "sawyer/sawing/grading.h"
+#include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/sawing_job.h"
+#include "sawyer/sawing/value.h"
+
+namespace sawyer::sawing {
+
+inline constexpr const char* kSawingFormatTag = "sawyer-sawing/1";
+
+// ---- writing ----
+
+// The whole file of `sawyer saw` / `sawyer run` for the outcome of a sawing job.
+nlohmann::ordered_json sawing_file_json(const LogModel& log, const SawSetup& setup,
+                                        const SawingOutcome& out);
+
+// One position as the viewer saves it: horns-down's value, the position, its value and gain over
+// horns-down, and its boards (without their knots and wane).
+struct SavedPosition {
+  std::string log_id;
+  const Pattern* pattern = nullptr;
+  const GradingRules* rules = nullptr;
+  const PriceTable* prices = nullptr;
+  double horns_down_value = 0;
+  LogPosition pos;
+  const SawResult* sawn = nullptr;
+  const LogValue* value = nullptr;
+  double gain_over_horns_down = 0;
+};
+nlohmann::ordered_json position_file_json(const SavedPosition& p);
+
+// ---- reading ----
+
+// A log position with its value (currency) at the position and, where the optimiser gave one,
+// its expected value under the positioning error.
+struct PositionValue {
+  bool present = false;  // the file holds this position
+  LogPosition pos;
+  double value = 0;
+  double smoothed_value = 0;
+  bool has_smoothed = false;
+  // The same position in the scanner frame ("scanner"; absent in older files): the turn from
+  // the log's orientation in the scanner and the pattern centre (x, y, z) at the log's two ends.
+  bool has_scanner = false;
+  double turn_deg = 0;
+  std::array<Vec3, 2> centre_at_ends{};
+};
+
+// The log's bow as the sawing file states it ("bow"; absent in older files).
+struct BowRecord {
+  bool present = false;
+  double arc_sagitta_mm = 0, chord_sweep_mm = 0, min_bow_mm = 0;
+  bool straight = false;
+};
+
+// One board of sawing.json at the chosen position.
+struct BoardRecord {
+  std::string name;
+  double thickness_mm = 0, width_mm = 0;
+  ThicknessAxis thickness_axis = ThicknessAxis::kU;
+  double u_mm = 0, v_mm = 0;            // centre in the pattern frame
+  double z_begin_mm = 0, z_end_mm = 0;  // trimmed, log frame
+  double volume_m3 = 0;
+  std::string grade, limited_by;
+  double price_per_m3 = 0, value = 0;
+  int knots = 0, dead_knots = 0;  // knot crossings on its long sides (when sawing.json lists them)
+  double max_wane_mm = 0;         // largest wane over its sides
+  // Cross-cut to value ("offcuts_mm"): the pieces cut off its sawn length at z_begin and z_end.
+  double offcut_begin_mm = 0, offcut_end_mm = 0;
+  double length_mm() const { return z_end_mm - z_begin_mm; }
+  // limited_by, and the offcuts where the board was cross-cut ("…; cross-cut, 0.60 m off at z 0.00
+  // m").
+  std::string limit_and_offcuts() const;
+};
+
+// The optimiser's value grid, flat index (rotation × n_x + x) × n_y + y.
+struct ValueSurface {
+  std::vector<double> rotations_deg, offsets_x_mm, offsets_y_mm;
+  std::vector<double> value, smoothed_value;
+  bool empty() const { return value.empty(); }
+};
+
+// sawing.json.
+struct SawingRecord {
+  std::string log_id, pattern, grading, prices, currency;
+  PositionValue best, horns_down, horns_up;
+  double gain_over_horns_down = 0, gain_over_horns_up = 0;  // of the best's expected value
+  bool chosen_given = false;                                // "chosen": "given"
+  PositionValue chosen;                                     // best or given_position
+  BowRecord bow;
+  std::vector<BoardRecord> boards;  // at the chosen position
+  ValueSurface surface;
+};
+
+// The file's text, parsed and checked; errors name the key. A file without "best" (a position
+// the viewer saved) is read with its given position as the chosen one; best.present and
+// horns_up.present say which positions the file holds.
+Result<SawingRecord> sawing_record_from_json(const std::string& text);
+// The same from a file; errors name the file and the key.
+Result<SawingRecord> read_sawing_file(const std::filesystem::path& path);
+
+}  // namespace sawyer::sawing
