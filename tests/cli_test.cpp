@@ -157,4 +157,10 @@ TEST(OptionNames, AFrontEndPutsItsFlagsInPlaceOfTheLibrarysOptionNames) {
             "rot_step_deg2 my_rot_step_deg X::rot_step_deg --rot-step");
   EXPECT_EQ(sawyer::with_option_names(sawyer::Error("rot_step_deg", "too small"), kFlags).message(),
             "--rot-step: too small");
+  // A prefix rule, with an exception before it.
+  static constexpr sawyer::OptionName kPrefix[] = {{"PhantomOptions::image_size", "--size"},
+                                                   {"PhantomOptions::", "--"}};
+  EXPECT_EQ(sawyer::with_option_names(
+                "PhantomOptions::ring_width_mm: 0.1; PhantomOptions::image_size: 9; X::y", kPrefix),
+            "--ring-width-mm: 0.1; --size: 9; X::y");
 }

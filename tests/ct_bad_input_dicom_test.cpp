@@ -274,9 +274,10 @@ TEST(DicomBadInput, MixedSeries) {
   for (int i = 1; i <= 3; ++i)
     fs::rename(tmp / "t" / (std::string("slice_000") + std::to_string(i) + ".dcm"),
                tmp / "s" / (std::string("other_") + std::to_string(i) + ".dcm"));
-  expect_refused(tmp / "s", {(tmp / "s").string() + ": holds 2 DICOM series; choose one with "
-                                                    "--series (number or UID prefix): 1: 2.25.",
-                             "\"Sawyer phantom\" CT, 4 files", "\"Sawyer phantom\" CT, 3 files"});
+  expect_refused(tmp / "s",
+                 {(tmp / "s").string() + ": holds 2 DICOM series; choose one with "
+                                         "OpenOptions::series (number or UID prefix): 1: 2.25.",
+                  "\"Sawyer phantom\" CT, 4 files", "\"Sawyer phantom\" CT, 3 files"});
 }
 
 TEST(DicomBadInput, ZeroPixelSpacing) {
@@ -475,7 +476,7 @@ TEST(DicomBadInput, UnknownSeriesOption) {
   OpenOptions o;
   o.series = "1.2.3";
   expect_refused(tmp / "s",
-                 {(tmp / "s").string() + ": no DICOM series matches --series "
+                 {(tmp / "s").string() + ": no DICOM series matches OpenOptions::series "
                                          "\"1.2.3\"; the folder holds: 1: 2.25."},
                  o);
 }

@@ -195,7 +195,7 @@ TEST(CtBadInputImage, ZeroPixelSpacingOption) {
   OpenOptions o;
   o.pixel_spacing = 0;
   EXPECT_THAT(problem(dir.path(), o),
-              HasSubstr("--pixel-spacing must be a positive number of mm, got 0"));
+              HasSubstr("OpenOptions::pixel_spacing must be a positive number of mm, got 0"));
 }
 
 TEST(CtBadInputImage, NegativeSliceSpacingOption) {
@@ -204,7 +204,7 @@ TEST(CtBadInputImage, NegativeSliceSpacingOption) {
   OpenOptions o;
   o.slice_spacing = -1.5;
   EXPECT_THAT(problem(dir.path(), o),
-              HasSubstr("--slice-spacing must be a positive number of mm, got -1.5"));
+              HasSubstr("OpenOptions::slice_spacing must be a positive number of mm, got -1.5"));
 }
 
 TEST(CtBadInputImage, SingleSlice) {
@@ -228,8 +228,11 @@ TEST(CtBadInputImage, EightBitWithoutRescale) {
   test::write_file(dir / "sawyer_stack.json", kSpacing);
   const std::string msg = problem(dir.path());
   EXPECT_THAT(msg, HasSubstr("a1.png"));
-  EXPECT_THAT(msg, HasSubstr("8-bit slices carry no HU scale: give rescale_slope/rescale_intercept "
-                             "in sawyer_stack.json or --rescale-slope/--rescale-intercept"));
+  EXPECT_THAT(
+      msg,
+      HasSubstr(
+          "8-bit slices carry no HU scale: give rescale_slope/rescale_intercept "
+          "in sawyer_stack.json or OpenOptions::rescale_slope/OpenOptions::rescale_intercept"));
 }
 
 TEST(CtBadInputImage, NanInFloatTiff) {
@@ -313,7 +316,7 @@ TEST(CtBadInputImage, NoSpacingSaysHowToGiveIt) {
   write_u16(dir / "slice_2.tif");
   const std::string msg = problem(dir.path());
   EXPECT_THAT(msg, HasSubstr("no pixel spacing: put \"pixel_spacing_mm\" in sawyer_stack.json "
-                             "beside the slices or give --pixel-spacing (mm)"));
+                             "beside the slices or give OpenOptions::pixel_spacing (mm)"));
   OpenOptions o;
   o.pixel_spacing = 0.5;
   EXPECT_THAT(problem(dir.path(), o), HasSubstr("no slice spacing: put \"slice_spacing_mm\" (or "
@@ -466,10 +469,9 @@ TEST(CtBadInputImage, EightBitVolumeWithoutRescale) {
               "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 16 12 2\nspacings: 1 1 1\n"
               "encoding: raw\n\n",
               v.data(), v.size());
-  EXPECT_THAT(
-      problem(dir / "b.nrrd"),
-      HasSubstr(
-          "b.nrrd: 8-bit volume carries no HU scale: give --rescale-slope/--rescale-intercept"));
+  EXPECT_THAT(problem(dir / "b.nrrd"),
+              HasSubstr("b.nrrd: 8-bit volume carries no HU scale: give "
+                        "OpenOptions::rescale_slope/OpenOptions::rescale_intercept"));
 }
 
 TEST(CtBadInputImage, SingleSliceVolume) {

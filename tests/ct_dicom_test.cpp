@@ -550,7 +550,8 @@ TEST(DicomSeries, SeveralSeriesAreRefusedWithAList) {
   auto src = open(dir);
   ASSERT_FALSE(src);
   const std::string& m = src.error().message();
-  EXPECT_THAT(m, StartsWith(dir.string() + ": holds 3 DICOM series; choose one with --series"));
+  EXPECT_THAT(
+      m, StartsWith(dir.string() + ": holds 3 DICOM series; choose one with OpenOptions::series"));
   for (int k = 0; k < 3; ++k) {
     const std::string uid =
         series_uid_of(dir / (std::string("s") + std::to_string(k) + "_slice_0001.dcm"));
@@ -598,7 +599,8 @@ TEST(DicomSeries, PickByUidPrefixAndByNumber) {
 
   auto none = open(dir, series_option("9.9.9"));
   ASSERT_FALSE(none);
-  EXPECT_THAT(none.error().message(), HasSubstr("no DICOM series matches --series \"9.9.9\""));
+  EXPECT_THAT(none.error().message(),
+              HasSubstr("no DICOM series matches OpenOptions::series \"9.9.9\""));
   auto ambiguous = open(dir, series_option("2.25."));
   ASSERT_FALSE(ambiguous);
   EXPECT_THAT(ambiguous.error().message(), HasSubstr("matches 3 series"));

@@ -131,8 +131,9 @@ TEST(CtLimits, StraySliceFarAwayIsRefusedUnlessGapsAreAllowed) {
   TempDir tmp;
   write_volume(tmp / "s", geometry(81, 5.0));
   set_dicom_text(dicom_file(tmp / "s", 81), 0x0020, 0x0032, "0\\0\\3000");
-  expect_refused(tmp / "s", {(tmp / "s").string(), "would invent 520 of 601 slices (86.5 %",
-                             "z=395.0..3000.0 mm (2605.0 mm, limit 50 mm)", "--allow-gaps"});
+  expect_refused(tmp / "s",
+                 {(tmp / "s").string(), "would invent 520 of 601 slices (86.5 %",
+                  "z=395.0..3000.0 mm (2605.0 mm, limit 50 mm)", "OpenOptions::allow_gaps"});
   OpenOptions allow;
   allow.allow_gaps = true;
   auto r = open_ct(tmp / "s", allow);
@@ -269,7 +270,8 @@ TEST(CtLimits, SidecarSpacingOutsideTheLimits) {
   expect_opens(tmp / "u");
   OpenOptions o;
   o.pixel_spacing = 1e6;
-  expect_refused(tmp / "u", {(tmp / "u").string() + ": --pixel-spacing 1e+06 mm is outside"}, o);
+  expect_refused(tmp / "u",
+                 {(tmp / "u").string() + ": OpenOptions::pixel_spacing 1e+06 mm is outside"}, o);
 }
 
 TEST(CtLimits, CommandLineSpacingAndRescaleHaveRanges) {

@@ -542,7 +542,7 @@ TEST(CtStack, CommandLineOverridesTheSidecar) {
   EXPECT_DOUBLE_EQ(src->geometry().slice_spacing(), 3.0);
   EXPECT_DOUBLE_EQ(src->geometry().rescale_slope, 2.0);
   EXPECT_DOUBLE_EQ(src->geometry().rescale_intercept, -1024.0);
-  EXPECT_TRUE(has_note(*src, "--pixel-spacing 0.9 mm overrides"));
+  EXPECT_TRUE(has_note(*src, "OpenOptions::pixel_spacing 0.9 mm overrides"));
   Slice s;
   ASSERT_TRUE(src->read(1, s).ok());
   const double stored = std::round(pattern_hu(5, 3, 1) + 1024);

@@ -100,46 +100,46 @@ TEST(PhantomConditions, OptionsOutsideTheirRangesAreRefusedNamingTheOption) {
   EXPECT_TRUE(PhantomOptions{}.validate().ok());
   PhantomOptions o;
   o.juvenile_ring_width_mm = 0.1;
-  expect_bad(o, "--juvenile-ring-width-mm", "0.1");
+  expect_bad(o, "PhantomOptions::juvenile_ring_width_mm", "0.1");
   o = {};
   o.ring_contrast_hu = 900;
-  expect_bad(o, "--ring-contrast-hu", "900");
+  expect_bad(o, "PhantomOptions::ring_contrast_hu", "900");
   o = {};
   o.latewood_fraction = 0.95;
-  expect_bad(o, "--latewood-fraction", "0.95");
+  expect_bad(o, "PhantomOptions::latewood_fraction", "0.95");
   o = {};
   o.density_drift_hu_per_m = 1e300;
-  expect_bad(o, "--density-drift-hu-per-m", "1e+300");
+  expect_bad(o, "PhantomOptions::density_drift_hu_per_m", "1e+300");
   o = {};
   o.wet_pockets = -1;
-  expect_bad(o, "--wet-pockets", "-1");
+  expect_bad(o, "PhantomOptions::wet_pockets", "-1");
   o = {};
   o.hu_offset = 700;
-  expect_bad(o, "--hu-offset", "700");
+  expect_bad(o, "PhantomOptions::hu_offset", "700");
   o = {};
   o.hu_slope = 0;
-  expect_bad(o, "--hu-slope", "0");
+  expect_bad(o, "PhantomOptions::hu_slope", "0");
   o = {};
   o.cupping_hu = std::nan("");
-  expect_bad(o, "--cupping-hu", "nan");
+  expect_bad(o, "PhantomOptions::cupping_hu", "nan");
   o = {};
   o.window_width_hu = 2;
-  expect_bad(o, "--window-width-hu", "2");
+  expect_bad(o, "PhantomOptions::window_width_hu", "2");
   o = {};
   o.cracks = 51;
-  expect_bad(o, "--cracks", "51");
+  expect_bad(o, "PhantomOptions::cracks", "51");
   o = {};
   o.crack_width_mm = 0;
-  expect_bad(o, "--crack-width-mm", "0");
+  expect_bad(o, "PhantomOptions::crack_width_mm", "0");
   o = {};
   o.compression_wood = 2;
-  expect_bad(o, "--compression-wood", "2");
+  expect_bad(o, "PhantomOptions::compression_wood", "2");
   o = {};
   o.resin_knots = -0.5;
-  expect_bad(o, "--resin-knots", "-0.5");
+  expect_bad(o, "PhantomOptions::resin_knots", "-0.5");
   o = {};
   o.knot_bark_mm = 9;
-  expect_bad(o, "--knot-bark-mm", "9");
+  expect_bad(o, "PhantomOptions::knot_bark_mm", "9");
 }
 
 // ---- rings -----------------------------------------------------------------------------------
@@ -448,7 +448,8 @@ TEST(PhantomConditions, MetalStreaksRunWhereTheTruthSays) {
   EXPECT_GE(on, 6);
   EXPECT_GE(off, 1);
   o.clutter = false;
-  EXPECT_NE(o.validate().error().message().find("--metal-streak-hu"), std::string::npos);
+  EXPECT_NE(o.validate().error().message().find("PhantomOptions::metal_streak_hu"),
+            std::string::npos);
 }
 
 // The 8-bit slices and the window in the truth give back the HU within half a level.
@@ -498,7 +499,7 @@ TEST(PhantomConditions, WindowedExportMapsBackToHuWithinQuantisation) {
   wo.format = Format::kDicom;
   auto bad = write_phantom(*ph, dcm, wo);
   ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message().find("--window-width-hu"), std::string::npos);
+  EXPECT_NE(bad.error().message().find("PhantomOptions::window_width_hu"), std::string::npos);
   EXPECT_FALSE(fs::exists(dcm));
 }
 

@@ -90,32 +90,32 @@ TEST(PhantomOptions, RejectsNonsenseNamingTheOption) {
   EXPECT_TRUE(o.validate().ok());
   o = {};
   o.slice_spacing_mm = -5;
-  expect_bad(o, "--spacing-mm");
+  expect_bad(o, "PhantomOptions::slice_spacing_mm");
   o = {};
   o.placement.tilt_x_deg = 12;
-  expect_bad(o, "--tilt-x-deg");
+  expect_bad(o, "Placement::tilt_x_deg");
   o = {};
   o.placement.tilt_y_deg = -10.5;
-  expect_bad(o, "--tilt-y-deg");
+  expect_bad(o, "Placement::tilt_y_deg");
   o = {};
   o.image_size = 0;
-  expect_bad(o, "--size");
+  expect_bad(o, "PhantomOptions::image_size");
   o = {};
   o.pixel_mm = 0;
-  expect_bad(o, "--pixel-mm");
+  expect_bad(o, "PhantomOptions::pixel_mm");
   o = {};
   o.noise_hu = -1;
-  expect_bad(o, "--noise-hu");
+  expect_bad(o, "PhantomOptions::noise_hu");
   o = {};
   o.ring_width_mm = 0;
-  expect_bad(o, "--ring-width-mm");
+  expect_bad(o, "PhantomOptions::ring_width_mm");
   o = {};
   o.from_mm = 500;
   o.to_mm = 100;
-  expect_bad(o, "--from-mm");
+  expect_bad(o, "PhantomOptions::from_mm");
   o = {};
   o.drop_slices = -1;
-  expect_bad(o, "--drop-slices");
+  expect_bad(o, "PhantomOptions::drop_slices");
 }
 
 TEST(Phantom, RejectsARangeOutsideTheLog) {

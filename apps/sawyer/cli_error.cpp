@@ -23,6 +23,14 @@ constexpr OptionName kFlags[] = {
     {"face_mask", "--face"},
     {"Board::from_string", "--board"},
     {"shard_spec", "--shard"},
+    // The phantom's and the CT readers' options are their flags, '_' for '-', but for three.
+    {"PhantomOptions::image_size", "--size"},
+    {"PhantomOptions::slice_spacing_mm", "--spacing-mm"},
+    {"PhantomOptions::slice_thickness_mm", "--thickness-mm"},
+    {"PhantomOptions::", "--"},
+    {"PhantomWriteOptions::", "--"},
+    {"Placement::", "--"},
+    {"OpenOptions::", "--"},
 };
 
 }  // namespace

@@ -71,7 +71,7 @@ report::RunRecord run_record(const RunCli& c, const ScanJob& scan, const std::st
   // Every note of the reader (resampled gaps, ignored files), and the resampling in one line.
   if (std::string z = ct::resampling_summary(scan.source->geometry()); !z.empty())
     in.scan_notes.push_back(z);
-  for (const std::string& n : scan.source->notes()) in.scan_notes.push_back(n);
+  for (const std::string& n : scan.source->notes()) in.scan_notes.push_back(with_flags(n));
   const ct::ZResampling& zr = scan.source->geometry().z_resampling;
   r.z_resampling = {zr.resampled, zr.source_slices, zr.invented_slices,
                     zr.gaps,      zr.widest_gap_mm, zr.widest_gap_z0};

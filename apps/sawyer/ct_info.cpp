@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_error.h"
 #include "ct_options.h"
 #include "sawyer/ct/limits.h"
 
@@ -183,7 +184,8 @@ Status print_ct_info(const std::filesystem::path& path, const ct::OpenOptions& o
                              " % of voxels (wood, bark and anything else dense)");
   }
   if (const std::string z = ct::resampling_summary(g); !z.empty()) row("z grid", z);
-  std::vector<std::string> problems = src.notes();
+  std::vector<std::string> problems;
+  for (const std::string& n : src.notes()) problems.push_back(with_flags(n));
   if (nonfinite > 0) problems.push_back(std::to_string(nonfinite) + " voxels are NaN or infinite");
   if (problems.empty()) {
     row("problems", "none");

@@ -1281,17 +1281,17 @@ Result<size_t> choose_series(const std::vector<Series>& all, const std::string& 
   if (const auto number = parse_int(wanted); number && wanted.find('.') == std::string::npos) {
     if (*number >= 1 && *number <= static_cast<long long>(all.size()))
       return static_cast<size_t>(*number - 1);
-    return Error(where, "--series " + wanted + ": there are only " + std::to_string(all.size()) +
-                            " series: " + series_list(all));
+    return Error(where, "OpenOptions::series " + wanted + ": there are only " +
+                            std::to_string(all.size()) + " series: " + series_list(all));
   }
   std::vector<size_t> matches;
   for (size_t k = 0; k < all.size(); ++k)
     if (all[k].uid.starts_with(wanted)) matches.push_back(k);
   if (matches.size() == 1) return matches[0];
   if (matches.empty())
-    return Error(where, "no DICOM series matches --series " + in_quotes(wanted) +
+    return Error(where, "no DICOM series matches OpenOptions::series " + in_quotes(wanted) +
                             "; the folder holds: " + series_list(all));
-  return Error(where, "--series " + in_quotes(wanted) + " matches " +
+  return Error(where, "OpenOptions::series " + in_quotes(wanted) + " matches " +
                           std::to_string(matches.size()) +
                           " series; give more of the UID or the number: " + series_list(all));
 }
@@ -1714,18 +1714,19 @@ Result<std::unique_ptr<SliceSource>> open_dicom(const fs::path& path, const Open
       auto pick = choose_series(all, options.series, folder_name);
       if (!pick) return pick.error();
       if (pick.value() != chosen)
-        return Error(path.string(), "belongs to series " + all[chosen].uid + ", not to --series " +
-                                        options.series);
+        return Error(path.string(), "belongs to series " + all[chosen].uid +
+                                        ", not to OpenOptions::series " + options.series);
     }
   } else if (!options.series.empty()) {
     auto pick = choose_series(all, options.series, folder_name);
     if (!pick) return pick.error();
     chosen = pick.value();
   } else if (all.size() > 1) {
-    return Error(folder_name, "holds " + std::to_string(all.size()) +
-                                  " DICOM series; choose one with --series (number or UID "
-                                  "prefix): " +
-                                  series_list(all));
+    return Error(folder_name,
+                 "holds " + std::to_string(all.size()) +
+                     " DICOM series; choose one with OpenOptions::series (number or UID "
+                     "prefix): " +
+                     series_list(all));
   }
   if (all.size() > 1)
     notes.push_back("the folder holds " + std::to_string(all.size()) + " DICOM series; reading " +

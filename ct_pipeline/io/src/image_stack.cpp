@@ -44,7 +44,7 @@ constexpr long long kMaxSlicePixels = 1LL << 26;  // 8192 x 8192
 
 constexpr const char* k8BitMessage =
     "8-bit slices carry no HU scale: give rescale_slope/rescale_intercept in sawyer_stack.json "
-    "or --rescale-slope/--rescale-intercept";
+    "or OpenOptions::rescale_slope/OpenOptions::rescale_intercept";
 
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -973,11 +973,11 @@ Status resolve_rescale(const OpenOptions& options, const StackLayout& s, const T
                        const PageInfo& layout, const fs::path& first, ImageStackSource& src) {
   if (options.rescale_slope &&
       !(std::isfinite(*options.rescale_slope) && *options.rescale_slope != 0))
-    return Error(s.where.string(),
-                 "--rescale-slope must be a non-zero number, got " + num(*options.rescale_slope));
+    return Error(s.where.string(), "OpenOptions::rescale_slope must be a non-zero number, got " +
+                                       num(*options.rescale_slope));
   if (options.rescale_intercept && !std::isfinite(*options.rescale_intercept))
-    return Error(s.where.string(),
-                 "--rescale-intercept must be a number, got " + num(*options.rescale_intercept));
+    return Error(s.where.string(), "OpenOptions::rescale_intercept must be a number, got " +
+                                       num(*options.rescale_intercept));
   const StackSidecar none;
   const StackSidecar& sc = s.sc ? *s.sc : none;
   const std::optional<double> slope = options.rescale_slope ? options.rescale_slope
@@ -1027,9 +1027,9 @@ Result<std::unique_ptr<SliceSource>> open_stack(const fs::path& path, const Open
     if (Status st = apply_file_list(s); !st) return st.error();
   }
   if (s.mixed) return *s.mixed;
-  if (Status st = check_option(options.pixel_spacing, where, "--pixel-spacing"); !st)
+  if (Status st = check_option(options.pixel_spacing, where, "OpenOptions::pixel_spacing"); !st)
     return st.error();
-  if (Status st = check_option(options.slice_spacing, where, "--slice-spacing"); !st)
+  if (Status st = check_option(options.slice_spacing, where, "OpenOptions::slice_spacing"); !st)
     return st.error();
 
   auto src = std::make_unique<ImageStackSource>();
@@ -1144,8 +1144,8 @@ Result<std::unique_ptr<SliceSource>> open_stack(const fs::path& path, const Open
   if (options.pixel_spacing) {
     g.spacing_x = g.spacing_y = *options.pixel_spacing;
     if (sc.pixel_spacing_x)
-      src->notes_.push_back("--pixel-spacing " + num(*options.pixel_spacing) + " mm overrides " +
-                            sidecar_name);
+      src->notes_.push_back("OpenOptions::pixel_spacing " + num(*options.pixel_spacing) +
+                            " mm overrides " + sidecar_name);
   } else if (sc.pixel_spacing_x) {
     g.spacing_x = *sc.pixel_spacing_x;
     g.spacing_y = *sc.pixel_spacing_y;
@@ -1156,13 +1156,13 @@ Result<std::unique_ptr<SliceSource>> open_stack(const fs::path& path, const Open
   } else {
     if (!tags.pixel_note.empty()) src->notes_.push_back(tags.pixel_note);
     return Error(where, "no pixel spacing: put \"pixel_spacing_mm\" in " + sidecar_name +
-                            " beside the slices or give --pixel-spacing (mm)");
+                            " beside the slices or give OpenOptions::pixel_spacing (mm)");
   }
   if (options.slice_spacing) {
     for (int i = 0; i < count; ++i) g.z.push_back(i * *options.slice_spacing);
     if (sc.slice_spacing || !sc.z_mm.empty())
-      src->notes_.push_back("--slice-spacing " + num(*options.slice_spacing) + " mm overrides " +
-                            sidecar_name);
+      src->notes_.push_back("OpenOptions::slice_spacing " + num(*options.slice_spacing) +
+                            " mm overrides " + sidecar_name);
   } else if (!sc.z_mm.empty()) {
     if (static_cast<int>(sc.z_mm.size()) != count) {
       return Error(s.sidecar->string(), "\"z_mm\" has " + std::to_string(sc.z_mm.size()) +
@@ -1176,7 +1176,8 @@ Result<std::unique_ptr<SliceSource>> open_stack(const fs::path& path, const Open
     src->notes_.push_back(tags.slice_note);
   } else {
     return Error(where, "no slice spacing: put \"slice_spacing_mm\" (or \"z_mm\") in " +
-                            sidecar_name + " beside the slices or give --slice-spacing (mm)");
+                            sidecar_name +
+                            " beside the slices or give OpenOptions::slice_spacing (mm)");
   }
   if (sc.origin) g.origin = *sc.origin;
   if (sc.orientation) {

@@ -185,7 +185,7 @@ Status check_invented(const std::string& where, const ZResampling& info, int cou
                           ", widest z=" + mm(info.widest_gap_z0, dec) + ".." +
                           mm(info.widest_gap_z0 + info.widest_gap_mm, dec) + " mm (" +
                           mm(info.widest_gap_mm, dec) + " mm, limit " + mm(options.max_gap_mm, 0) +
-                          " mm); --allow-gaps resamples anyway");
+                          " mm); OpenOptions::allow_gaps resamples anyway");
 }
 
 }  // namespace

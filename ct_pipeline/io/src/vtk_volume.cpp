@@ -1217,9 +1217,9 @@ Result<std::unique_ptr<SliceSource>> open_volume(const fs::path& file, const Ope
   // HU: the file's values are HU unless a rescale is given (options, then the MetaImage keys).
   std::optional<double> slope = options.rescale_slope, intercept = options.rescale_intercept;
   if (slope && !(std::isfinite(*slope) && *slope != 0))
-    return Error(where, "--rescale-slope must be a non-zero number, got " + num(*slope));
+    return Error(where, "OpenOptions::rescale_slope must be a non-zero number, got " + num(*slope));
   if (intercept && !std::isfinite(*intercept))
-    return Error(where, "--rescale-intercept must be a number, got " + num(*intercept));
+    return Error(where, "OpenOptions::rescale_intercept must be a number, got " + num(*intercept));
   if (!slope && !intercept) {
     slope = h.slope;
     intercept = h.intercept;
@@ -1229,15 +1229,17 @@ Result<std::unique_ptr<SliceSource>> open_volume(const fs::path& file, const Ope
   src->intercept_ = intercept.value_or(0.0);
   if ((h.scalar == Scalar::kU8 || h.scalar == Scalar::kI8) && !rescaled)
     return Error(where,
-                 "8-bit volume carries no HU scale: give --rescale-slope/--rescale-intercept");
+                 "8-bit volume carries no HU scale: give "
+                 "OpenOptions::rescale_slope/OpenOptions::rescale_intercept");
   if (h.scalar == Scalar::kU16 && !rescaled) {
     src->notes_.push_back(
         "unsigned 16-bit values read as HU unchanged; if they are HU + 1024, "
-        "give --rescale-intercept -1024");
+        "give OpenOptions::rescale_intercept -1024");
   }
   if (options.pixel_spacing || options.slice_spacing)
     src->notes_.push_back(
-        "--pixel-spacing/--slice-spacing ignored: the volume file gives the spacing");
+        "OpenOptions::pixel_spacing/OpenOptions::slice_spacing ignored: the volume file gives the "
+        "spacing");
   g.rescale_slope = src->slope_;
   g.rescale_intercept = src->intercept_;
   g.bits_stored = static_cast<int>(scalar_bytes(h.scalar) * 8);

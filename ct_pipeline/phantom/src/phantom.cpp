@@ -156,45 +156,52 @@ HuTable dried_hu_table(const HuTable& green) {
 Status PhantomOptions::validate() const {
   auto bad = [](const char* opt, const std::string& what) { return Status(Error(opt, what)); };
   if (image_size < 16 || image_size > 8192)
-    return bad("--size", "image size must be 16-8192 pixels, got " + std::to_string(image_size));
+    return bad("PhantomOptions::image_size",
+               "image size must be 16-8192 pixels, got " + std::to_string(image_size));
   if (!(pixel_mm > 0.01 && pixel_mm <= 20))
-    return bad("--pixel-mm", "pixel size must be in (0.01, 20] mm, got " + fmt(pixel_mm));
+    return bad("PhantomOptions::pixel_mm",
+               "pixel size must be in (0.01, 20] mm, got " + fmt(pixel_mm));
   if (!(slice_spacing_mm > 0.01 && slice_spacing_mm <= 100))
-    return bad("--spacing-mm",
+    return bad("PhantomOptions::slice_spacing_mm",
                "slice spacing must be in (0.01, 100] mm, got " + fmt(slice_spacing_mm));
   if (!(slice_thickness_mm >= 0 && slice_thickness_mm <= 100))
-    return bad("--thickness-mm", "slice thickness must be in (0, 100] mm (0: the spacing), got " +
-                                     fmt(slice_thickness_mm));
+    return bad(
+        "PhantomOptions::slice_thickness_mm",
+        "slice thickness must be in (0, 100] mm (0: the spacing), got " + fmt(slice_thickness_mm));
   if (sub_slices < 0 || sub_slices > 64)
-    return bad("--sub-slices", "must be 0 (auto) to 64, got " + std::to_string(sub_slices));
-  if (from_mm && !std::isfinite(*from_mm)) return bad("--from-mm", "not a number");
-  if (to_mm && !std::isfinite(*to_mm)) return bad("--to-mm", "not a number");
+    return bad("PhantomOptions::sub_slices",
+               "must be 0 (auto) to 64, got " + std::to_string(sub_slices));
+  if (from_mm && !std::isfinite(*from_mm)) return bad("PhantomOptions::from_mm", "not a number");
+  if (to_mm && !std::isfinite(*to_mm)) return bad("PhantomOptions::to_mm", "not a number");
   if (from_mm && to_mm && *from_mm > *to_mm)
-    return bad("--from-mm", "the range start " + fmt(*from_mm, 1) + " mm is past its end " +
-                                fmt(*to_mm, 1) + " mm");
+    return bad("PhantomOptions::from_mm", "the range start " + fmt(*from_mm, 1) +
+                                              " mm is past its end " + fmt(*to_mm, 1) + " mm");
   const Placement& p = placement;
   if (!std::isfinite(p.offset_x_mm) || !std::isfinite(p.offset_y_mm) ||
       std::abs(p.offset_x_mm) > 1e4 || std::abs(p.offset_y_mm) > 1e4)
-    return bad("--offset-x-mm/--offset-y-mm", "offset must be a finite number of mm");
+    return bad("Placement::offset_x_mm/Placement::offset_y_mm",
+               "offset must be a finite number of mm");
   if (!(std::abs(p.tilt_x_deg) <= 10))
-    return bad("--tilt-x-deg", "tilt must be within ±10°, got " + fmt(p.tilt_x_deg, 2));
+    return bad("Placement::tilt_x_deg", "tilt must be within ±10°, got " + fmt(p.tilt_x_deg, 2));
   if (!(std::abs(p.tilt_y_deg) <= 10))
-    return bad("--tilt-y-deg", "tilt must be within ±10°, got " + fmt(p.tilt_y_deg, 2));
-  if (!std::isfinite(p.roll_deg)) return bad("--roll-deg", "not a number");
+    return bad("Placement::tilt_y_deg", "tilt must be within ±10°, got " + fmt(p.tilt_y_deg, 2));
+  if (!std::isfinite(p.roll_deg)) return bad("Placement::roll_deg", "not a number");
   if (!(noise_hu >= 0 && noise_hu <= 1000))
-    return bad("--noise-hu", "noise σ must be 0-1000 HU, got " + fmt(noise_hu, 1));
+    return bad("PhantomOptions::noise_hu", "noise σ must be 0-1000 HU, got " + fmt(noise_hu, 1));
   if (!(blur_px >= 0 && blur_px <= 10))
-    return bad("--blur-px", "PSF σ must be 0-10 pixels, got " + fmt(blur_px, 2));
+    return bad("PhantomOptions::blur_px", "PSF σ must be 0-10 pixels, got " + fmt(blur_px, 2));
   if (!(bed_gap_mm >= 0 && bed_gap_mm <= 100))
-    return bad("--bed-gap-mm", "must be 0-100 mm, got " + fmt(bed_gap_mm, 2));
+    return bad("PhantomOptions::bed_gap_mm", "must be 0-100 mm, got " + fmt(bed_gap_mm, 2));
   if (!(ring_width_mm >= 0.3 && ring_width_mm <= 30))
-    return bad("--ring-width-mm", "ring width must be 0.3-30 mm, got " + fmt(ring_width_mm, 2));
+    return bad("PhantomOptions::ring_width_mm",
+               "ring width must be 0.3-30 mm, got " + fmt(ring_width_mm, 2));
   if (!(ring_amplitude >= 0 && ring_amplitude <= 1))
-    return bad("--ring-amplitude", "must be 0-1, got " + fmt(ring_amplitude, 3));
+    return bad("PhantomOptions::ring_amplitude", "must be 0-1, got " + fmt(ring_amplitude, 3));
   if (!(knot_noise >= 0 && knot_noise <= 0.5))
-    return bad("--knot-noise", "must be 0-0.5, got " + fmt(knot_noise, 3));
-  if (drop_slices < 0) return bad("--drop-slices", "must not be negative");
-  if (threads < 0 || threads > 256) return bad("--threads", "must be 0 (auto) to 256");
+    return bad("PhantomOptions::knot_noise", "must be 0-0.5, got " + fmt(knot_noise, 3));
+  if (drop_slices < 0) return bad("PhantomOptions::drop_slices", "must not be negative");
+  if (threads < 0 || threads > 256)
+    return bad("PhantomOptions::threads", "must be 0 (auto) to 256");
   return validate_conditions();
 }
 
@@ -212,31 +219,33 @@ Status PhantomOptions::validate_conditions() const {
   const Status checks[] = {
       juvenile_ring_width_mm == 0
           ? Status::Ok()
-          : range("--juvenile-ring-width-mm", juvenile_ring_width_mm, 0.3, 30, " mm"),
-      range("--juvenile-radius-mm", juvenile_radius_mm, 1, 1000, " mm"),
-      range("--ring-contrast-hu", ring_contrast_hu, 0, 500, " HU"),
-      range("--latewood-fraction", latewood_fraction, 0, 0.8),
-      range("--density-drift-hu-per-m", density_drift_hu_per_m, -200, 200, " HU/m"),
-      count("--wet-pockets", wet_pockets, 50),
-      range("--hu-offset", hu_offset, -500, 500, " HU"),
-      range("--hu-slope", hu_slope, 0.5, 2),
-      range("--cupping-hu", cupping_hu, 0, 500, " HU"),
-      range("--metal-streak-hu", metal_streak_hu, 0, 2000, " HU"),
+          : range("PhantomOptions::juvenile_ring_width_mm", juvenile_ring_width_mm, 0.3, 30, " mm"),
+      range("PhantomOptions::juvenile_radius_mm", juvenile_radius_mm, 1, 1000, " mm"),
+      range("PhantomOptions::ring_contrast_hu", ring_contrast_hu, 0, 500, " HU"),
+      range("PhantomOptions::latewood_fraction", latewood_fraction, 0, 0.8),
+      range("PhantomOptions::density_drift_hu_per_m", density_drift_hu_per_m, -200, 200, " HU/m"),
+      count("PhantomOptions::wet_pockets", wet_pockets, 50),
+      range("PhantomOptions::hu_offset", hu_offset, -500, 500, " HU"),
+      range("PhantomOptions::hu_slope", hu_slope, 0.5, 2),
+      range("PhantomOptions::cupping_hu", cupping_hu, 0, 500, " HU"),
+      range("PhantomOptions::metal_streak_hu", metal_streak_hu, 0, 2000, " HU"),
       metal_streak_hu > 0 && !clutter
-          ? Status(Error("--metal-streak-hu", "needs --clutter (the streaks come from its steel)"))
+          ? Status(Error("PhantomOptions::metal_streak_hu",
+                         "needs PhantomOptions::clutter (the streaks come from its steel)"))
           : Status::Ok(),
-      range("--window-centre-hu", window_centre_hu, -1024, 3071, " HU"),
-      window_width_hu == 0 ? Status::Ok()
-                           : range("--window-width-hu", window_width_hu, 10, 5000, " HU"),
-      count("--cracks", cracks, 50),
-      range("--crack-width-mm", crack_width_mm, 0.1, 20, " mm"),
-      count("--resin-pockets", resin_pockets, 200),
-      count("--rot-pockets", rot_pockets, 20),
-      range("--compression-wood", compression_wood, 0, 1),
-      count("--bark-missing", bark_missing, 50),
-      count("--bark-loose", bark_loose, 50),
-      range("--knot-bark-mm", knot_bark_mm, 0, 5, " mm"),
-      range("--resin-knots", resin_knots, 0, 1),
+      range("PhantomOptions::window_centre_hu", window_centre_hu, -1024, 3071, " HU"),
+      window_width_hu == 0
+          ? Status::Ok()
+          : range("PhantomOptions::window_width_hu", window_width_hu, 10, 5000, " HU"),
+      count("PhantomOptions::cracks", cracks, 50),
+      range("PhantomOptions::crack_width_mm", crack_width_mm, 0.1, 20, " mm"),
+      count("PhantomOptions::resin_pockets", resin_pockets, 200),
+      count("PhantomOptions::rot_pockets", rot_pockets, 20),
+      range("PhantomOptions::compression_wood", compression_wood, 0, 1),
+      count("PhantomOptions::bark_missing", bark_missing, 50),
+      count("PhantomOptions::bark_loose", bark_loose, 50),
+      range("PhantomOptions::knot_bark_mm", knot_bark_mm, 0, 5, " mm"),
+      range("PhantomOptions::resin_knots", resin_knots, 0, 1),
   };
   for (const Status& st : checks)
     if (!st) return st;
@@ -413,18 +422,20 @@ Status Phantom::prepare() {
     from_ = to_ = 0.5 * (zb + ze);  // log shorter than a slab
   const double eps = 1e-6;
   if (from_ < zb - eps || to_ > ze + eps || from_ > to_)
-    return Error("--from-mm/--to-mm", "the scanned range [" + fmt(from_, 1) + ", " + fmt(to_, 1) +
-                                          "] mm must lie within the log's extent [" + fmt(zb, 1) +
-                                          ", " + fmt(ze, 1) + "] mm");
+    return Error("PhantomOptions::from_mm/PhantomOptions::to_mm",
+                 "the scanned range [" + fmt(from_, 1) + ", " + fmt(to_, 1) +
+                     "] mm must lie within the log's extent [" + fmt(zb, 1) + ", " + fmt(ze, 1) +
+                     "] mm");
   const double nf = std::floor((to_ - from_) / sp + 1e-6) + 1;
   if (nf > kMaxSlices)
-    return Error("--spacing-mm", "the scan would have " + fmt(nf, 0) + " slices (at most " +
-                                     std::to_string(kMaxSlices) + ")");
+    return Error("PhantomOptions::slice_spacing_mm", "the scan would have " + fmt(nf, 0) +
+                                                         " slices (at most " +
+                                                         std::to_string(kMaxSlices) + ")");
   const int n = static_cast<int>(nf);
   if (o.drop_slices > std::max(0, n - 2))
-    return Error("--drop-slices", "cannot drop " + std::to_string(o.drop_slices) + " of " +
-                                      std::to_string(n) +
-                                      " slices (the first and last are always kept)");
+    return Error("PhantomOptions::drop_slices", "cannot drop " + std::to_string(o.drop_slices) +
+                                                    " of " + std::to_string(n) +
+                                                    " slices (the first and last are always kept)");
 
   WoodFieldParams fp;
   fp.knot_noise = o.knot_noise;
@@ -518,7 +529,8 @@ Status Phantom::prepare() {
     return Error("log does not fit the field of view: it reaches " + fmt(need, 1) +
                  " mm from the image centre, a " + std::to_string(W) + " x " + fmt(px, 3) +
                  " mm image only " + fmt(half, 1) + " mm; the smallest pixel size that fits is " +
-                 fmt(px_min, 3) + " mm (--pixel-mm), or use a larger --size");
+                 fmt(px_min, 3) +
+                 " mm (PhantomOptions::pixel_mm), or use a larger PhantomOptions::image_size");
   }
 
   // Missing slices: drawn from the seed, never the first (z = 0) or the last.

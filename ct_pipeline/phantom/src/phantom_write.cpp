@@ -25,7 +25,8 @@ Result<Format> parse_phantom_format(const std::string& name) {
   if (name == "mha") return Format::kMetaImage;
   if (name == "vti") return Format::kVti;
   if (name == "nrrd") return Format::kNrrd;
-  return Error("--format", "unknown format '" + name + "' (dicom, tiff, png, mha, vti, nrrd)");
+  return Error("PhantomWriteOptions::format",
+               "unknown format '" + name + "' (dicom, tiff, png, mha, vti, nrrd)");
 }
 
 std::string PhantomSummary::brief_report() const {
@@ -73,10 +74,12 @@ Result<PhantomSummary> write_phantom(const Phantom& phantom, const fs::path& out
   const bool windowed = po.window_width_hu > 0;
   if (windowed) {
     if (!stack)
-      return Error("--window-width-hu", "windowed 8-bit export writes TIFF or PNG stacks, not " +
-                                            std::string(format_name(options.format)));
+      return Error("PhantomOptions::window_width_hu",
+                   "windowed 8-bit export writes TIFF or PNG stacks, not " +
+                       std::string(format_name(options.format)));
     if (options.rescale_slope || options.rescale_intercept)
-      return Error("--window-width-hu", "sets the rescale itself; leave out --rescale-intercept");
+      return Error("PhantomOptions::window_width_hu",
+                   "sets the rescale itself; leave out PhantomWriteOptions::rescale_intercept");
     wo.bits_stored = 8;
     wo.rescale_slope = po.window_width_hu / 255.0;
     wo.rescale_intercept = po.window_centre_hu - 0.5 * po.window_width_hu;

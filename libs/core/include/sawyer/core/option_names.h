@@ -18,6 +18,9 @@ struct OptionName {
   std::string_view option;  // as the library writes it
   std::string_view name;    // as the front end's user knows it
 };
+// An option ending in "::" is a prefix rule: "PhantomOptions::" → "--" turns every
+// "PhantomOptions::ring_width_mm" into "--ring-width-mm" ('_' to '-'). Rules apply in order, so
+// the exceptions to a prefix rule come before it.
 
 // Every occurrence of an option that stands as a whole word (not inside a longer identifier of
 // letters, digits, '_' and "::") replaced by its name.
