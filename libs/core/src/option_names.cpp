@@ -24,33 +24,22 @@ bool whole_word(const std::string& t, size_t at, size_t end) {
 std::string with_option_names(std::string text, std::span<const OptionName> names) {
   for (const OptionName& n : names) {
     if (n.option.empty()) continue;
-    if (n.option.size() > 2 && n.option.ends_with("::")) {  // a prefix rule
-      size_t at = 0;
-      while ((at = text.find(n.option, at)) != std::string::npos) {
-        size_t end = at + n.option.size();
-        while (end < text.size() && word_char(text[end])) ++end;
-        if (end == at + n.option.size() || !whole_word(text, at, end)) {
-          at = end;
-          continue;
-        }
-        std::string field = text.substr(at + n.option.size(), end - at - n.option.size());
-        for (char& c : field)
-          if (c == '_') c = '-';
-        const std::string to = std::string(n.name) + field;
-        text.replace(at, end - at, to);
-        at += to.size();
-      }
-      continue;
-    }
+    // A prefix rule takes the field name after the prefix with it, '_' turned to '-'.
+    const bool prefix = n.option.size() > 2 && n.option.ends_with("::");
     size_t at = 0;
     while ((at = text.find(n.option, at)) != std::string::npos) {
-      const size_t end = at + n.option.size();
-      if (!whole_word(text, at, end)) {
+      const size_t start = at + n.option.size();
+      size_t end = start;
+      if (prefix)
+        while (end < text.size() && word_char(text[end])) ++end;
+      if ((prefix && end == start) || !whole_word(text, at, end)) {
         at = end;
         continue;
       }
-      text.replace(at, n.option.size(), n.name);
-      at += n.name.size();
+      std::string to(n.name);
+      for (size_t i = start; i < end; ++i) to += text[i] == '_' ? '-' : text[i];
+      text.replace(at, end - at, to);
+      at += to.size();
     }
   }
   return text;

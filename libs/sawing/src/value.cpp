@@ -112,7 +112,6 @@ namespace {
 class PieceWane {
  public:
   PieceWane(const Board& b, double step, int steps) {
-    pts_.clear();
     for (int i = 0; i <= steps; ++i) pts_.push_back(b.z_begin + i * step);
     for (int j = 0; j <= steps; ++j) pts_.push_back(b.z_end - j * step);
     std::sort(pts_.begin(), pts_.end());
