@@ -152,14 +152,14 @@ int main(int argc, char** argv) {
 
   // A 180 mm x 40 mm board 15 mm above the pith over the whole log: its top face fills the image.
   const Vec3 c = indexed.value()->pith_point(0);
-  Board full;
+  BoardBox full;
   full.cx = c.x;
   full.cy = c.y + 15;
   full.width = 180;
   full.thickness = 40;
   full.z0 = log.stem.z_begin();
   full.z1 = log.stem.z_end();
-  Board part = full;
+  BoardBox part = full;
   part.z0 = 1750;
   part.z1 = 2250;
   const LogModel short_log = crop(log, part.z0 - 5, part.z1 + 5);
@@ -171,10 +171,10 @@ int main(int argc, char** argv) {
   auto fb = Framebuffer::create(size, size, Framebuffer::Format::kRgba8);
   if (!fb) return fail(fb.error().message());
   const float bg[4] = {0, 0, 0, 1};
-  auto face_frame = [&](WoodRenderer& r, const Board& b) {
+  auto face_frame = [&](WoodRenderer& r, const BoardBox& b) {
     return [&r, &fb, b, &bg]() {
       fb.value().bind(bg);
-      r.draw_plane(b.face(Face::kTop), fb.value().viewport());
+      r.draw_plane(board_face(b, Face::kTop), fb.value().viewport());
     };
   };
   struct Row {
@@ -215,7 +215,7 @@ int main(int argc, char** argv) {
   scene.surface_z1 = 2600;
   scene.cross_sections = {log.stem.z_begin() + 0.01, 2600 - 0.01};
   for (int i = -1; i <= 1; ++i) {
-    Board b = full;
+    BoardBox b = full;
     b.cy = c.y + i * 46.0;
     b.z0 = 2600;
     b.z1 = 4000;

@@ -430,15 +430,15 @@ TEST(RenderLimits, SizesPastTheSideOrMemoryBudgetAreRefused) {
 }
 
 TEST(RenderLimits, BoardGeometryOutOfRangeIsRefused) {
-  EXPECT_TRUE(render::Board::from_string("0,0,150,50,0,100,3900"));
+  EXPECT_TRUE(BoardBox::from_string("0,0,150,50,0,100,3900"));
   for (const auto& [text, message] : std::vector<std::pair<std::string, std::string>>{
            {"0,0,1e300,50,0,100,3900",
-            "Board::from_string: board: width 1e+300 is outside 0-3000 mm"},
+            "BoardBox::from_string: board: width 1e+300 is outside 0-3000 mm"},
            {"0,0,150,50,1e6,100,3900",
-            "Board::from_string: rotation 1e+06° is outside -360 to 360°"},
-           {"1e9,0,150,50,0,100,3900", "Board::from_string: board: centre x 1e+09 is outside"},
-           {"0,0,150,50,0,-1e12,3900", "Board::from_string: board: z0 -1e+12 is outside"}}) {
-    Result<render::Board> b = render::Board::from_string(text);
+            "BoardBox::from_string: rotation 1e+06° is outside -360 to 360°"},
+           {"1e9,0,150,50,0,100,3900", "BoardBox::from_string: board: centre x 1e+09 is outside"},
+           {"0,0,150,50,0,-1e12,3900", "BoardBox::from_string: board: z0 -1e+12 is outside"}}) {
+    Result<BoardBox> b = BoardBox::from_string(text);
     ASSERT_FALSE(b) << text;
     EXPECT_THAT(b.error().message(), HasSubstr(message));
   }

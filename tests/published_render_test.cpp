@@ -95,8 +95,8 @@ const PublishedRendererPort& port(const PublishedRules& rules = {}) {
 }
 
 // The board of the header comment, in the maps' frame (which the importer keeps: z = h).
-Board whorl_board(const PublishedRendererPort& pub) {
-  Board b;
+BoardBox whorl_board(const PublishedRendererPort& pub) {
+  BoardBox b;
   b.z0 = 2400;
   b.z1 = 3000;
   b.width = 150;
@@ -304,9 +304,9 @@ const Faces& our_whorl_board_faces() {
     Faces out;
     auto r = WoodRenderer::create(imported());
     if (!r.ok()) throw std::runtime_error(r.error().message());
-    const Board b = whorl_board(port());
+    const BoardBox b = whorl_board(port());
     for (Face face : {Face::kTop, Face::kBottom})
-      out.faces.emplace_back(face_name(face), render_face(*r.value(), b.face(face)));
+      out.faces.emplace_back(face_name(face), render_face(*r.value(), board_face(b, face)));
     return out;
   }();
   return f;
@@ -446,7 +446,7 @@ TEST(PublishedRender, BeyondRminReport) {
   test::ensure_headless_context();
   auto r = WoodRenderer::create(imported());
   ASSERT_TRUE(r.ok()) << r.error().message();
-  Board b = whorl_board(port());
+  BoardBox b = whorl_board(port());
   const Vec2 c = port().pith(0.5 * (b.z0 + b.z1));
   b.width = 100;
   b.thickness = 20;
@@ -454,7 +454,7 @@ TEST(PublishedRender, BeyondRminReport) {
   b.cy = c.y + 100 * std::cos(b.rotation);
   Agreement a;
   for (Face face : {Face::kTop, Face::kBottom})
-    a.add(render_face(*r.value(), b.face(face)), face_name(face), port(), imported());
+    a.add(render_face(*r.value(), board_face(b, face)), face_name(face), port(), imported());
   a.print("gran1 published maps, thin board 90-110 mm from the pith (top face beyond rmin)");
   ASSERT_GT(a.dt_stem.size(), 10000u);
   EXPECT_LE(Agreement::quantile(a.dt_stem, 0.95), kMaxStemP95Dt);

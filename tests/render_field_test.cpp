@@ -121,7 +121,7 @@ TEST(RenderField, Gran1BoardFaceAgreesWithWoodField) {
   ASSERT_TRUE(r.ok()) << r.error().message();
   WoodField field(log);
   const Vec2 c = log.stem.pith_at(1500);
-  Board b;
+  BoardBox b;
   b.cx = c.x;
   b.cy = c.y + 20;
   b.width = 160;
@@ -130,7 +130,7 @@ TEST(RenderField, Gran1BoardFaceAgreesWithWoodField) {
   b.z1 = 2000;
   int knot_pixels = 0;
   for (Face f : {Face::kTop, Face::kBottom}) {
-    const PlaneRect rect = b.face(f);
+    const PlaneRect rect = board_face(b, f);
     const Image img = render_field(*r.value(), rect, 800, 128);
     const Agreement a = compare(log, field, img, rect, kTol);
     expect_agreement(a, std::string("gran1 board face ") + face_name(f));
@@ -170,7 +170,7 @@ TEST(RenderField, KnotIndexChangesNothing) {
   ASSERT_TRUE(indexed.ok()) << indexed.error().message();
   ASSERT_TRUE(every.ok()) << every.error().message();
   const Vec2 c = log.stem.pith_at(2000);
-  Board b;
+  BoardBox b;
   b.cx = c.x + 10;
   b.cy = c.y - 30;
   b.width = 200;
@@ -180,7 +180,7 @@ TEST(RenderField, KnotIndexChangesNothing) {
   b.z1 = 4000;
   int differ = 0, n = 0;
   for (Face f : {Face::kTop, Face::kLeft}) {
-    const PlaneRect rect = b.face(f);
+    const PlaneRect rect = board_face(b, f);
     const Image a = render_field(*indexed.value(), rect, 1200, 64);
     const Image e = render_field(*every.value(), rect, 1200, 64);
     for (size_t i = 0; i < a.f32.size(); i += 4) {

@@ -32,7 +32,7 @@ TEST(RenderImage, BoardFaceIsWrittenAndShowsTheKnots) {
   auto r = WoodRenderer::create(log);
   ASSERT_TRUE(r.ok()) << r.error().message();
   const Vec3 c = r.value()->pith_point(0);
-  Board b;
+  BoardBox b;
   b.cx = c.x;
   b.cy = c.y + 45;
   b.width = 150;
@@ -53,7 +53,7 @@ TEST(RenderImage, BoardFaceIsWrittenAndShowsTheKnots) {
   ASSERT_EQ(im.width, w);
   ASSERT_EQ(im.height, 150);
 
-  const PlaneRect face = b.face(Face::kTop);
+  const PlaneRect face = board_face(b, Face::kTop);
   double knot_sum = 0, wood_sum = 0, sum = 0, sum2 = 0;
   int knots = 0, wood = 0, opaque = 0;
   for (int y = 0; y < im.height; ++y)

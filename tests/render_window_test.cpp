@@ -26,7 +26,7 @@ TEST(RenderWindow, DrawsABoardIntoTheWindowFramebuffer) {
   auto r = WoodRenderer::create(log);
   ASSERT_TRUE(r.ok()) << r.error().message();
   const Vec3 c = r.value()->pith_point(0);
-  Board b;
+  BoardBox b;
   b.cx = c.x;
   b.cy = c.y + 40;
   b.width = 150;
@@ -36,7 +36,7 @@ TEST(RenderWindow, DrawsABoardIntoTheWindowFramebuffer) {
   const Viewport vp = win.value()->framebuffer_viewport();
   ASSERT_GT(vp.width, 0);
   bind_default_framebuffer(vp);
-  r.value()->draw_plane(b.face(Face::kTop), vp);
+  r.value()->draw_plane(board_face(b, Face::kTop), vp);
   const Image img = read_pixels(vp);
   win.value()->swap_buffers();
   int wood = 0;

@@ -431,7 +431,7 @@ TEST(BoardPlacement, MapsBackToThePatternFrame) {
   ASSERT_FALSE(r.boards.empty());
   const double phi = sawing::pattern_rotation(log, pos);
   for (const sawing::Board& b : r.boards) {
-    const sawing::BoardPlacement p = sawing::board_placement(log, b, pos);
+    const BoardBox p = sawing::board_placement(log, b, pos);
     // The centre, turned back into the pattern frame, is the board's (u, v).
     const Vec2 o = log.line_at(0.5 * (p.z0 + p.z1));
     const double dx = p.cx - o.x, dy = p.cy - o.y;

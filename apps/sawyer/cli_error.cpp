@@ -21,8 +21,11 @@ constexpr OptionName kFlags[] = {
     {"ImageSize", "--size"},
     {"FaceLayout::supersample", "--supersample"},
     {"face_mask", "--face"},
-    {"Board::from_string", "--board"},
+    {"BoardBox::from_string", "--board"},
     {"shard_spec", "--shard"},
+    {"RunJobOptions::output", "-o"},
+    {"RunJobOptions::db", "--db"},
+    {"RunJobOptions::no_register", "--no-register"},
     // The phantom's and the CT readers' options are their flags, '_' for '-', but for three.
     {"PhantomOptions::image_size", "--size"},
     {"PhantomOptions::slice_spacing_mm", "--spacing-mm"},

@@ -130,9 +130,9 @@ int run(const RenderCli& c) {
     return fail(st.error());
   Result<unsigned> faces = parse_faces(c.faces);
   if (!faces) return fail(faces.error());
-  std::vector<Board> boards;
+  std::vector<BoardBox> boards;
   for (const std::string& b : c.boards) {
-    Result<Board> board = Board::from_string(b);
+    Result<BoardBox> board = BoardBox::from_string(b);
     if (!board) return fail(board.error());
     boards.push_back(board.value());
   }
@@ -165,7 +165,7 @@ int run(const RenderCli& c) {
                                        " mm)"));
 
   // A board that misses the log would render as an empty image: refuse it instead.
-  for (const Board& b : boards)
+  for (const BoardBox& b : boards)
     if (b.z1 <= model.stem.z_begin() || b.z0 >= model.stem.z_end())
       return fail(Error(
           "--board", "z " + mm(b.z0) + " to " + mm(b.z1) + " mm misses the log, which runs from " +
@@ -184,7 +184,7 @@ int run(const RenderCli& c) {
   // Board centres are given from the log's mean pith line unless --scanner-frame says otherwise.
   if (!c.scanner_frame) {
     const Vec3 centre = renderer.pith_point(0.0);
-    for (Board& b : boards) {
+    for (BoardBox& b : boards) {
       b.cx += centre.x;
       b.cy += centre.y;
     }
@@ -209,7 +209,7 @@ int run(const RenderCli& c) {
       // The boards are sawn out of the log: the surface stops where the first one starts, with
       // a cross-section there; the log's ends are cross-sections too.
       double cut = model.stem.z_end();
-      for (const Board& b : boards) cut = std::min(cut, std::max(b.z0, model.stem.z_begin()));
+      for (const BoardBox& b : boards) cut = std::min(cut, std::max(b.z0, model.stem.z_begin()));
       if (c.section_z) cut = std::min(cut, *c.section_z);
       scene.surface_z1 = cut;
       scene.cross_sections.push_back(model.stem.z_begin() + 0.01);

@@ -102,18 +102,6 @@ struct SawCli {
 
 namespace fs = std::filesystem;
 
-}  // namespace
-
-std::vector<fs::path> saw_input_files(const sawing::SawNames& names) {
-  std::vector<fs::path> files;
-  std::error_code ec;
-  for (const std::string* f : {&names.pattern, &names.grading, &names.prices})
-    if (!f->empty() && fs::exists(*f, ec)) files.emplace_back(*f);
-  return files;
-}
-
-namespace {
-
 int run(const SawCli& c) {
   Result<LogModel> model = maps::open_log(c.input);
   if (!model) return fail(model.error());
@@ -121,7 +109,7 @@ int run(const SawCli& c) {
   if (!setup) return fail(setup.error());
   // Never the log itself, a folder, a device or FIFO; a second `saw` to the same file refuses.
   OutputRequest req{c.output, OutputKind::kFile, {c.input}, "-o"};
-  for (const fs::path& f : saw_input_files(c.names)) req.inputs.push_back(f);
+  for (const fs::path& f : setup_input_files(c.names)) req.inputs.push_back(f);
   Result<OutputLock> lock = OutputLock::acquire(req);
   if (!lock) return fail(lock.error());
   const SawSetup& su = setup.value();

@@ -24,10 +24,6 @@ namespace sawyer::app {
 // function that does the work and returns the exit code (0, or 1 with one line on stderr).
 void add_saw_command(CLI::App& app, std::function<int()>& run);
 
-// The pattern, grading and price files the names point at (names such as "2ex" or "nordic" are
-// no files): inputs an output must never replace (`sawyer saw`, `sawyer run`).
-std::vector<std::filesystem::path> saw_input_files(const sawing::SawNames& names);
-
 // The one-screen summary of a sawing job (`sawyer saw`, `sawyer run`): positions and speed,
 // best / horns-down / horns-up values, the gain, and the boards' table.
 void print_sawing_summary(const LogModel& log, const sawing::SawSetup& setup,

@@ -6,9 +6,10 @@
 #include <memory>
 #include <string>
 
+#include "ct_options.h"
 #include "sawyer/core/file_util.h"
 #include "sawyer/core/output_guard.h"
-#include "scan_job.h"
+#include "sawyer/ct/jobs/scan_job.h"
 
 namespace sawyer::app {
 
@@ -17,20 +18,21 @@ namespace fs = std::filesystem;
 namespace {
 
 struct ScanCli {
-  ScanJobOptions job;
+  ct::ScanJobOptions job;
+  CtCliOptions ct;
   std::string output;
 };
 
 int run_scan(const ScanCli& c) {
   // The input is opened first (a bad scan is named before anything else), then the output is
   // checked and locked, before the scan's real work.
-  auto source = open_scan(c.job);
+  auto source = ct::open_scan(c.job);
   if (!source) return fail(source.error());
   Result<OutputLock> lock =
       OutputLock::acquire({c.output, OutputKind::kScanFolder, {c.job.input}, "-o"});
   if (!lock) return fail(lock.error());
   int next = 1;
-  Result<ScanJob> job = scan_ct(
+  Result<ct::ScanJob> job = ct::scan_ct(
       c.job,
       [&](const char* stage, int done, int all) {
         if (std::string(stage) == "knots") {
@@ -45,7 +47,7 @@ int run_scan(const ScanCli& c) {
       std::move(source.value()));
   if (!job) return fail(job.error());
   Status st = write_dir_atomic(
-      c.output, [&](const fs::path& tmp) { return write_scan_files(job.value(), c.job, tmp); });
+      c.output, [&](const fs::path& tmp) { return ct::write_scan_files(job.value(), c.job, tmp); });
   if (!st) return fail(st.error());
   std::printf("%s\nwrote %s\n", ct::scan_brief(job.value().scan, c.job.input).c_str(),
               c.output.c_str());
@@ -53,7 +55,7 @@ int run_scan(const ScanCli& c) {
     std::printf("note: %s\n", z.c_str());
   // A scan whose QA verdict fails is written whole, and says so: exit 3 (README).
   if (!job.value().trusted()) {
-    std::fprintf(stderr, "sawyer: %s\n", qa_report(job.value().log().qa.value()).c_str());
+    std::fprintf(stderr, "sawyer: %s\n", ct::qa_report(job.value().log().qa.value()).c_str());
     return 3;
   }
   return 0;
@@ -77,8 +79,11 @@ void add_scan_command(CLI::App& app, std::function<int()>& run) {
       ->check(CLI::Range(1, 256));
   cmd->add_option("--qa-slices", c->job.qa_slices, "how many slices to draw in qa/")
       ->capture_default_str();
-  add_ct_options(cmd, c->job.ct);
-  cmd->callback([c, &run] { run = [c] { return run_scan(*c); }; });
+  add_ct_options(cmd, c->ct);
+  cmd->callback([c, &run] {
+    c->job.open = to_open_options(c->ct);
+    run = [c] { return run_scan(*c); };
+  });
 }
 
 }  // namespace sawyer::app

@@ -21,7 +21,6 @@
 #include <utility>
 #include <vector>
 
-#include "gl.h"
 #include "sawyer/core/option_names.h"
 #include "sawyer/maps/open_log.h"
 #include "sawyer/model/log_json.h"
@@ -40,7 +39,7 @@ namespace {
 
 // The libraries' option names (docs/style.md 6) as the viewer's flags.
 constexpr OptionName kFlags[] = {{"SawNames::position", "--position"},
-                                 {"Board::from_string", "--board"},
+                                 {"BoardBox::from_string", "--board"},
                                  {"ImageSize", "--size"}};
 
 int fail(const std::string& message) {
@@ -99,10 +98,8 @@ void run_frame(view::Viewer& v, render::GlfwWindow& win, const view::FrameReques
   ImGui::Render();
   const double t0 = now_ms();
   const render::Viewport vp = win.framebuffer_viewport();
-  render::bind_default_framebuffer(vp);
-  glDisable(GL_SCISSOR_TEST);
-  glClearColor(0.08f, 0.08f, 0.09f, 1.0f);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  const float background[4] = {0.08f, 0.08f, 0.09f, 1.0f};
+  render::clear_default_framebuffer(vp, background);
   v.draw_background();
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
   if (req.timing) {
@@ -120,7 +117,7 @@ view::FrameRequest request_for(const render::Viewport& vp) {
 
 Status save_window(render::GlfwWindow& win, const fs::path& path) {
   const render::Viewport vp = win.framebuffer_viewport();
-  return render::write_image(path, view::read_window(vp.width, vp.height));
+  return render::write_image(path, render::read_window(vp.width, vp.height));
 }
 
 struct BenchRow {
@@ -254,9 +251,9 @@ int main(int argc, char** argv) {
 
   int width = 0, height = 0;
   if (Status st = parse_size(cli.size, &width, &height); !st) return fail(st.error().message());
-  std::optional<render::Board> board;
+  std::optional<BoardBox> board;
   if (!cli.board.empty()) {
-    Result<render::Board> b = render::Board::from_string(cli.board);
+    Result<BoardBox> b = BoardBox::from_string(cli.board);
     if (!b) return fail(b.error().message());
     board = b.value();
   }

@@ -74,7 +74,7 @@ void SawingPanel::set_position(const LogPosition& pos) {
   changed_ = true;
 }
 
-std::optional<render::Board> SawingPanel::selected_board() const {
+std::optional<BoardBox> SawingPanel::selected_board() const {
   if (!session_ || session_->sawn().boards.empty()) return std::nullopt;
   return session_->board_in_scanner(static_cast<size_t>(selected_));
 }

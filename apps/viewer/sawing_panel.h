@@ -19,10 +19,13 @@
 
 #include <imgui.h>
 
-#include "sawing_session.h"
 #include "sawyer/sawing/optimise.h"
+#include "sawyer/sawing/sawing_session.h"
 
 namespace sawyer::view {
+
+using sawing::SawingChoice;
+using sawing::SawingSession;
 
 class SawingPanel {
  public:
@@ -43,7 +46,7 @@ class SawingPanel {
   void draw_on_section(ImDrawList* dl, double z, const std::function<ImVec2(double, double)>& to_px,
                        double mm_per_px, bool image_hovered);
   // The board picked in the table, in the scanner frame (for the faces panel), if any.
-  std::optional<render::Board> selected_board() const;
+  std::optional<BoardBox> selected_board() const;
   // Changes since the last call (the faces panel follows the selection).
   bool take_changed() { return std::exchange(changed_, false); }
 

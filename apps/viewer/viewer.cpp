@@ -24,8 +24,11 @@ namespace sawyer::view {
 namespace {
 
 namespace fs = std::filesystem;
-using render::Board;
+using render::board_outline;
 using render::Face;
+using render::knot_tubes;
+using render::log_surface;
+using render::pith_line;
 
 constexpr float kBackground[4] = {0.15f, 0.16f, 0.18f, 1.0f};
 constexpr float kPanelBackground[4] = {0.10f, 0.10f, 0.11f, 1.0f};
@@ -171,7 +174,7 @@ void Viewer::defaults_for_log() {
   state_.longitudinal_offset = 0;
   // A side board off the pith, through the middle of the log: its faces meet the knots at an
   // angle, as most boards do.
-  Board& b = state_.board;
+  BoardBox& b = state_.board;
   b.cx = c.x;
   b.cy = c.y + 0.45 * R;
   b.width = std::round(std::min(0.9 * R, 150.0));
@@ -189,7 +192,7 @@ void Viewer::reset_view() {
 }
 
 void Viewer::frame_board() {
-  const Board& b = state_.board;
+  const BoardBox& b = state_.board;
   std::vector<Vec3> corners;
   for (double z : {b.z0, b.z1})
     for (double su : {-0.5, 0.5})
@@ -234,7 +237,7 @@ void Viewer::ui_sawing(float x, float y, float w, float h) {
   sawing_->ui();
   ImGui::End();
   if (sawing_->take_changed()) {
-    if (std::optional<Board> b = sawing_->selected_board()) {
+    if (std::optional<BoardBox> b = sawing_->selected_board()) {
       state_.board = *b;
       const double zc = 0.5 * (b->z0 + b->z1);
       if (state_.section_z < b->z0 || state_.section_z > b->z1) state_.section_z = zc;
@@ -485,7 +488,7 @@ void Viewer::ui_controls(float x, float y, float w, float h) {
   }
 
   if (ImGui::CollapsingHeader("Board", ImGuiTreeNodeFlags_DefaultOpen)) {
-    Board& b = state_.board;
+    BoardBox& b = state_.board;
     const Vec2 c = st.pith_at(0.5 * (st.z_begin() + st.z_end()));
     auto slider = [&](const char* id, double* v, float lo, float hi, const char* fmt) {
       float f = static_cast<float>(*v);
@@ -583,7 +586,7 @@ void Viewer::ui_panels(float x, float y, float w, float h) {
     };
     ImDrawList* dl = ImGui::GetWindowDrawList();
     dl->PushClipRect(s0, ImVec2(s0.x + side, s0.y + side), true);
-    const Board& b = state_.board;
+    const BoardBox& b = state_.board;
     if (sawing_mode_ && sawing_) {
       sawing_->draw_on_section(
           dl, state_.section_z, [&](double px, double py) { return to_px(px, py); },
@@ -633,7 +636,7 @@ void Viewer::ui_panels(float x, float y, float w, float h) {
     const float xs = l0.x + static_cast<float>((state_.section_z - st.z_begin()) / len * inner);
     dl->AddLine(ImVec2(xs, l0.y), ImVec2(xs, l0.y + lh), IM_COL32(90, 200, 255, 220), 1.0f);
     if (state_.show_board) {
-      const Board& b = state_.board;
+      const BoardBox& b = state_.board;
       const float xa = l0.x + static_cast<float>((b.z0 - st.z_begin()) / len * inner);
       const float xb = l0.x + static_cast<float>((b.z1 - st.z_begin()) / len * inner);
       dl->AddLine(ImVec2(xa, l0.y + lh + 2), ImVec2(xb, l0.y + lh + 2), IM_COL32(255, 215, 64, 255),
@@ -642,7 +645,7 @@ void Viewer::ui_panels(float x, float y, float w, float h) {
     ImGui::Dummy(ImVec2(inner, 2));
   }
 
-  const Board& b = state_.board;
+  const BoardBox& b = state_.board;
   ImGui::Text("Faces top, bottom, left, right; z %.0f-%.0f", b.z0, b.z1);
   const double px_per_mm = inner / std::max(b.z1 - b.z0, 1.0);
   // The space left for the four faces, shared in proportion to their widths in mm.
@@ -684,7 +687,7 @@ void Viewer::ui_panels(float x, float y, float w, float h) {
 
 void Viewer::draw_3d(bool force, bool timing) {
   const render::Camera cam = orbit_.camera();
-  const Board& b = state_.board;
+  const BoardBox& b = state_.board;
   const ViewState& s = state_;
   std::ostringstream k;
   k << key_of({static_cast<double>(view_w_),
@@ -790,7 +793,7 @@ void Viewer::draw_longitudinal(bool force, bool timing) {
 }
 
 void Viewer::draw_faces(bool force, bool timing) {
-  const Board& b = state_.board;
+  const BoardBox& b = state_.board;
   if (!state_.show_board) return;
   const std::string k = key_of({static_cast<double>(faces_w_), static_cast<double>(faces_h_), b.cx,
                                 b.cy, b.width, b.thickness, b.rotation, b.z0, b.z1,
@@ -801,7 +804,7 @@ void Viewer::draw_faces(bool force, bool timing) {
   if (!faces_tex_.resize(faces_w_, faces_h_, GlTarget::Depth::kNone)) return;
   faces_tex_.bind(kPanelBackground, false);
   for (int i = 0; i < 4; ++i)
-    renderer_->draw_plane(b.face(kLongFaceOrder[i]), {0, face_y_[i], faces_w_, face_h_[i]});
+    renderer_->draw_plane(board_face(b, kLongFaceOrder[i]), {0, face_y_[i], faces_w_, face_h_[i]});
 }
 
 }  // namespace sawyer::view

@@ -20,16 +20,26 @@
 #include <string>
 #include <vector>
 
-#include "gl_layers.h"
-#include "knot_mesh.h"
-#include "orbit_camera.h"
-#include "sawing_session.h"
 #include "sawyer/core/result.h"
 #include "sawyer/model/log_model.h"
+#include "sawyer/render/gl_layers.h"
+#include "sawyer/render/mesh.h"
+#include "sawyer/render/orbit_camera.h"
 #include "sawyer/render/scene.h"
 #include "sawyer/render/wood_renderer.h"
+#include "sawyer/sawing/sawing_session.h"
 
 namespace sawyer::view {
+
+// The pieces the viewer is built from (libs/render, libs/sawing), by their short names.
+using render::GlTarget;
+using render::GpuMesh;
+using render::Mesh;
+using render::MeshPainter;
+using render::OrbitCamera;
+using render::Rgb;
+using sawing::SawingChoice;
+using sawing::SawingSession;
 
 // What is shown; the UI and the keys change it, main.cpp may preset it from the command line.
 struct ViewState {
@@ -52,7 +62,7 @@ struct ViewState {
   double section_z = 0;            // mm
   double longitudinal_deg = 0;     // azimuth of the longitudinal section, degrees
   double longitudinal_offset = 0;  // mm along its normal
-  render::Board board;
+  BoardBox board;
 };
 
 // Milliseconds spent in each part of the last frame (with finish_rendering() between parts when

@@ -99,6 +99,13 @@ void bind_default_framebuffer(const Viewport& viewport) {
   glViewport(viewport.x, viewport.y, viewport.width, viewport.height);
 }
 
+void clear_default_framebuffer(const Viewport& viewport, const float rgba[4]) {
+  bind_default_framebuffer(viewport);
+  glDisable(GL_SCISSOR_TEST);
+  glClearColor(rgba[0], rgba[1], rgba[2], rgba[3]);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+}
+
 Image read_pixels(const Viewport& vp) {
   Image img;
   img.width = vp.width;

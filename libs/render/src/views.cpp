@@ -94,13 +94,13 @@ Status check_image_size(int w, int h, int n, bool float_field) {
   return Status::Ok();
 }
 
-Result<Image> render_board_faces(WoodRenderer& r, const Board& board, unsigned faces,
+Result<Image> render_board_faces(WoodRenderer& r, const BoardBox& board, unsigned faces,
                                  ImageSize size, const ShadeOptions& shade,
                                  const FaceLayout& layout) {
   if (Status st = board.validate(); !st) return st.error();
   std::vector<PlaneRect> rects;
   for (unsigned bit = 1; bit <= 32; bit <<= 1)
-    if (faces & bit) rects.push_back(board.face(static_cast<Face>(bit)));
+    if (faces & bit) rects.push_back(board_face(board, static_cast<Face>(bit)));
   if (rects.empty()) return Error("face_mask", "no face selected");
   if (size.width < 1) return Error("ImageSize", "width must be at least 1 pixel");
   double max_w = 0, sum_h = 0;

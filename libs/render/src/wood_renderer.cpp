@@ -350,9 +350,9 @@ void WoodRenderer::draw(const Scene& scene, const Camera& camera, const Viewport
   glDisable(GL_BLEND);
   // Boards: closed boxes are drawn without their far sides.
   std::vector<Vertex> v;
-  for (const Board& b : scene.boards)
+  for (const BoardBox& b : scene.boards)
     for (unsigned bit = 1; bit <= 32; bit <<= 1)
-      if (scene.board_faces & bit) push_rect(v, b.face(static_cast<Face>(bit)));
+      if (scene.board_faces & bit) push_rect(v, board_face(b, static_cast<Face>(bit)));
   const bool cull_boards = scene.cull_hidden && (scene.board_faces & kAllFaces) == kAllFaces;
   if (cull_boards) glEnable(GL_CULL_FACE);
   glCullFace(GL_BACK);

@@ -335,24 +335,6 @@ Result<SurfacePtr> end_view(render::WoodRenderer& r, const RunFolder& run, const
 
 namespace {
 
-// The renderer's board for board `b` sawn at `pos` (placement.h: the scanner frame).
-render::Board render_board(const SawLog& log, const Board& b, const LogPosition& pos) {
-  const sawing::BoardPlacement p = sawing::board_placement(log, b, pos);
-  render::Board rb;
-  rb.cx = p.cx;
-  rb.cy = p.cy;
-  rb.rotation = p.rotation;
-  rb.width = p.width;
-  rb.thickness = p.thickness;
-  rb.z0 = p.z0;
-  rb.z1 = p.z1;
-  return rb;
-}
-
-}  // namespace
-
-namespace {
-
 // Every knot's axis from the pith to its end, projected with the view's camera and drawn as a
 // line as wide as the knot where the outer surface is cut away (z > surface_z1): green where
 // sound, red where dead. The lines are drawn over the boards (no depth test): an x-ray of where
@@ -409,7 +391,7 @@ Result<SurfacePtr> log_view(render::WoodRenderer& r, const SawLog& log, const Ru
   scene.log_surface = true;
   scene.surface_z1 = st.z_begin() + 0.5 * st.length_mm();
   for (const Board& b : boards.boards) {
-    scene.boards.push_back(render_board(log, b, run.sawing.chosen.pos));
+    scene.boards.push_back(sawing::board_placement(log, b, run.sawing.chosen.pos));
   }
   // The default camera, brought in until the log spans about 90 % of the image's width.
   render::Camera cam = render::default_log_camera(r);
@@ -432,8 +414,8 @@ Result<SurfacePtr> log_view(render::WoodRenderer& r, const SawLog& log, const Ru
 
 Result<SurfacePtr> board_faces(render::WoodRenderer& r, const SawLog& log, const LogPosition& pos,
                                const Board& b, double px_per_cm, int supersample) {
-  const render::Board rb = render_board(log, b, pos);
-  // render::Board's top (+v) is the pattern's −u side for a board cut with its thickness along u
+  const BoardBox rb = sawing::board_placement(log, b, pos);
+  // BoardBox's top (+v) is the pattern's −u side for a board cut with its thickness along u
   // (placement.cpp turns it 90°), the +v side otherwise; its right (+u) side is edge+ in both.
   const bool thick_u = b.thickness_axis == sawing::ThicknessAxis::kU;
   struct Row {

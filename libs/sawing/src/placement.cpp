@@ -58,10 +58,10 @@ std::array<Vec3, 2> pattern_centre_at_ends(const SawLog& log, const LogPosition&
   return ends;
 }
 
-BoardPlacement board_placement(const SawLog& log, const Board& b, const LogPosition& pos) {
+BoardBox board_placement(const SawLog& log, const Board& b, const LogPosition& pos) {
   const double zmid = 0.5 * (b.z_begin + b.z_end);
   const Vec2 centre = pattern_to_scanner(log, pos, b.u_mm, b.v_mm, zmid);
-  BoardPlacement p;
+  BoardBox p;
   p.cx = centre.x;
   p.cy = centre.y;
   // Pattern u in the scanner frame is Rot(−φ)(1, 0), at angle −φ. The placement's width runs

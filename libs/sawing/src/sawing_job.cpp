@@ -10,6 +10,14 @@ namespace sawyer::sawing {
 
 using Json = nlohmann::ordered_json;
 
+std::vector<std::filesystem::path> setup_input_files(const SawNames& names) {
+  std::vector<std::filesystem::path> files;
+  std::error_code ec;
+  for (const std::string* f : {&names.pattern, &names.grading, &names.prices})
+    if (!f->empty() && std::filesystem::exists(*f, ec)) files.emplace_back(*f);
+  return files;
+}
+
 Result<SawSetup> load_saw_setup(const SawNames& names, const OptimiseOptions& options) {
   SawSetup s;
   s.names = names;

@@ -48,6 +48,8 @@ class Framebuffer {
 // Binds the default framebuffer (a window's) and sets the viewport: what a viewer does before
 // drawing into its own window each frame.
 void bind_default_framebuffer(const Viewport& viewport);
+// The same, then clears all of the window (no scissor) to `rgba` and its depth to far.
+void clear_default_framebuffer(const Viewport& viewport, const float rgba[4]);
 
 // Reads `viewport` of the bound read framebuffer (a window's: after drawing, before swapping)
 // as 8-bit RGBA, rows top to bottom.

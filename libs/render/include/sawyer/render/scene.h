@@ -1,6 +1,6 @@
 // What the renderer draws, in the log frame (docs/architecture.md 3: mm, radians, z along the log).
 //
-//   Board b = Board::from_string("0,30,150,50,0,0,4000").value();  // x,y,w,t,rot(deg),z0,z1
+//   BoardBox b = BoardBox::from_string("0,30,150,50,0,0,4000").value();  // board_box.h
 //   Scene s;
 //   s.boards.push_back(b);
 //   s.cross_sections.push_back(1200.0);
@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "sawyer/core/result.h"
+#include "sawyer/model/board_box.h"
 #include "sawyer/render/camera.h"
 
 namespace sawyer::render {
@@ -30,27 +31,10 @@ inline constexpr unsigned kLongFaces = 15;  // top, bottom, left, right
 // "top", "bottom", "left", "right", "butt", "end".
 const char* face_name(Face f);
 
-// A board: a box in the log frame. Its cross-section is centred on (cx, cy), rotated by
-// `rotation` about the log axis: u = (cos r, sin r, 0) across the width, v = (-sin r, cos r, 0)
-// across the thickness. It spans [z0, z1] along the log. Where the box leaves the log (wane)
-// nothing is drawn.
-struct Board {
-  double cx = 0, cy = 0;     // mm, scanner frame
-  double width = 150;        // mm, along u
-  double thickness = 50;     // mm, along v
-  double rotation = 0;       // rad
-  double z0 = 0, z1 = 1000;  // mm
-
-  Vec3 u() const;
-  Vec3 v() const;
-  // The face as a rectangle seen from outside the board. Long faces: image x along the log
-  // (z0 → z1), image y across the face. End faces: x along u, y along v (seen from outside).
-  PlaneRect face(Face f) const;
-  // Checks sizes (> 0) and z0 < z1; the error names the bad value.
-  Status validate() const;
-  // Parses "x,y,w,t,rot_deg,z0,z1" (mm and degrees).
-  static Result<Board> from_string(const std::string& text);
-};
+// The face `f` of board box `b` (board_box.h) as a rectangle seen from outside the board. Long
+// faces: image x along the log (z0 → z1), image y across the face. End faces: x along u, y along
+// v (seen from outside). Where the box leaves the log (wane) the renderer draws nothing.
+PlaneRect board_face(const BoardBox& b, Face f);
 
 // A longitudinal section: the plane containing the log's mean pith line at azimuth `angle`
 // (rad, docs/architecture.md 3), shifted by `offset` mm along its normal; spans the whole log.
@@ -66,7 +50,7 @@ enum class ShadeMode {
 };
 
 struct Scene {
-  std::vector<Board> boards;
+  std::vector<BoardBox> boards;
   unsigned board_faces = kAllFaces;
   std::vector<double> cross_sections;  // heights z, mm
   std::vector<LongitudinalSection> longitudinal_sections;

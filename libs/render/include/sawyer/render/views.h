@@ -40,7 +40,7 @@ struct FaceLayout {
 
 // The board's faces in `faces` (Face bits), stacked top to bottom in the order top, bottom,
 // left, right, butt, end; long faces run left (z0) to right (z1).
-Result<Image> render_board_faces(WoodRenderer& renderer, const Board& board, unsigned faces,
+Result<Image> render_board_faces(WoodRenderer& renderer, const BoardBox& board, unsigned faces,
                                  ImageSize size, const ShadeOptions& shade = {},
                                  const FaceLayout& layout = {});
 

@@ -2,28 +2,17 @@
 // boards over images of the log (the viewer, the cutting report). No rendering dependency.
 //
 //   SawResult r = saw(log, pattern, pos);
-//   BoardPlacement p = board_placement(log, r.boards[0], pos);   // cx, cy, rotation, z0, z1
+//   BoardBox p = board_placement(log, r.boards[0], pos);   // cx, cy, rotation, z0, z1
 //   Vec2 corner = pattern_to_scanner(log, pos, u, v, z);         // any pattern point
 #pragma once
 
 #include <array>
 
 #include "sawyer/core/vec.h"
+#include "sawyer/model/board_box.h"
 #include "sawyer/sawing/sawing.h"
 
 namespace sawyer::sawing {
-
-// A board as a box in the scanner frame (the convention of render::Board): its cross-section
-// centred on (cx, cy) at mid-length, rotated by `rotation` (rad) about the log axis, so that the
-// width runs along (cos rotation, sin rotation) and the thickness along (−sin, cos); it spans
-// [z0, z1]. Millimetres. The box follows the mean pith line: (cx, cy) is exact at mid-length,
-// the board's ends are off by the line's slope × half the length (a few mm over 4 m).
-struct BoardPlacement {
-  double cx = 0, cy = 0;
-  double rotation = 0;
-  double width = 0, thickness = 0;
-  double z0 = 0, z1 = 0;
-};
 
 // The angle φ that turns the log at `pos`: a scanner point q (relative to the mean pith line)
 // lands at Rot(φ)·q in the pattern frame (docs/sawing.md, Frames), rad.
@@ -44,7 +33,9 @@ std::array<Vec3, 2> pattern_centre_at_ends(const SawLog& log, const LogPosition&
 double to_scanner_z(const LogModel& model, double z);
 double from_scanner_z(const LogModel& model, double scanner_z);
 
-// The board `b` (sawn from `log` at `pos`) in the scanner frame.
-BoardPlacement board_placement(const SawLog& log, const Board& b, const LogPosition& pos);
+// The board `b` (sawn from `log` at `pos`) as a box in the scanner frame (board_box.h). The box
+// follows the mean pith line: (cx, cy) is exact at mid-length, the board's ends are off by the
+// line's slope × half the length (a few mm over 4 m).
+BoardBox board_placement(const SawLog& log, const Board& b, const LogPosition& pos);
 
 }  // namespace sawyer::sawing

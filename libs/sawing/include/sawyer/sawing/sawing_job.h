@@ -14,6 +14,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "sawyer/core/result.h"
 #include "sawyer/model/log_model.h"
@@ -43,6 +44,10 @@ struct SawSetup {
 // Loads the pattern, rules and prices, checks that the prices cover every grade and that the
 // options suit the pattern, parses the position. Errors name the file or the option.
 Result<SawSetup> load_saw_setup(const SawNames& names, const OptimiseOptions& options);
+
+// The pattern, grading and price files the names point at (names such as "2ex" or "nordic" are
+// no files): inputs an output must never replace (`sawyer saw`, `sawyer run`).
+std::vector<std::filesystem::path> setup_input_files(const SawNames& names);
 
 struct SawingOutcome {
   SawLog saw_log;

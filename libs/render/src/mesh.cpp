@@ -1,9 +1,9 @@
-#include "knot_mesh.h"
+#include "sawyer/render/mesh.h"
 
 #include <algorithm>
 #include <cmath>
 
-namespace sawyer::view {
+namespace sawyer::render {
 namespace {
 
 MeshVertex vertex(const Vec3& p, const Vec3& n, const Rgb& c) {
@@ -102,7 +102,7 @@ Mesh knot_tubes(const LogModel& log, const KnotTubeOptions& o) {
   return mesh;
 }
 
-Mesh board_outline(const render::Board& b, const Rgb& color) {
+Mesh board_outline(const BoardBox& b, const Rgb& color) {
   Mesh mesh;
   mesh.lines = true;
   const Vec3 u = b.u(), v = b.v(), c{b.cx, b.cy, 0};
@@ -164,4 +164,4 @@ Mesh pith_line(const Stem& stem, const Rgb& color) {
   return mesh;
 }
 
-}  // namespace sawyer::view
+}  // namespace sawyer::render

@@ -18,14 +18,14 @@
 #include <string>
 
 #include "sawyer/core/result.h"
+#include "sawyer/model/board_box.h"
 #include "sawyer/model/log_model.h"
-#include "sawyer/render/scene.h"
 #include "sawyer/sawing/grading.h"
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
 #include "sawyer/sawing/value.h"
 
-namespace sawyer::view {
+namespace sawyer::sawing {
 
 // What to saw with: "2ex" | "4ex" | "tt" | a sawyer-pattern/1 file; "nordic" | "gost" | a
 // sawyer-grading/1 file; a sawyer-prices/1 file, empty for data/prices/example_prices.json.
@@ -66,9 +66,9 @@ class SawingSession {
   const sawing::PriceTable& prices() const { return prices_; }
   const SawingChoice& choice() const { return choice_; }
 
-  // Board i of sawn() as a render::Board in the scanner frame (centre at the board's middle
-  // height on the mean pith line; the pith line's small tilt is not followed).
-  render::Board board_in_scanner(size_t i) const;
+  // Board i of sawn() as a box in the scanner frame (sawing::board_placement: centre at the
+  // board's middle height on the mean pith line; the pith line's small tilt is not followed).
+  BoardBox board_in_scanner(size_t i) const;
   // The corners of a pattern-frame rectangle (centre u, v; sizes along u and v) at height z in
   // the scanner frame (x, y), at the current position.
   std::array<Vec2, 4> rect_in_scanner(double u, double v, double size_u, double size_v,
@@ -101,4 +101,4 @@ class SawingSession {
 // --position): "given_position", else "best". Errors name the file and the key.
 Result<sawing::LogPosition> read_saw_position(const std::filesystem::path& path);
 
-}  // namespace sawyer::view
+}  // namespace sawyer::sawing

@@ -16,7 +16,7 @@
 #include "sawyer/model/log_model.h"
 #include "sawyer/render/camera.h"
 
-namespace sawyer::view {
+namespace sawyer::render {
 
 class OrbitCamera {
  public:
@@ -49,13 +49,13 @@ class OrbitCamera {
   void view_top();
   void toggle_projection();
 
-  render::Camera camera() const;
+  Camera camera() const;
   // Visible height at the target's distance, mm (pan and scale bars).
   double visible_height() const;
 
   Vec3 target{0, 0, 0};
   double distance = 3000;  // mm from the target
-  double yaw = 0.35;       // rad, see render::Camera::orbit
+  double yaw = 0.35;       // rad, see Camera::orbit
   double pitch = 0.3;      // rad
   double fov_y = 0.6;      // rad, vertical
   bool orthographic = false;
@@ -64,4 +64,4 @@ class OrbitCamera {
   double extent = 5000;
 };
 
-}  // namespace sawyer::view
+}  // namespace sawyer::render

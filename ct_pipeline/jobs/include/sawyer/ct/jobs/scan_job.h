@@ -1,39 +1,44 @@
-// The work of `sawyer scan`, shared with `sawyer run`: the CT input opened from the command
-// line's options, scanned by the library's one call (ct::scan_log: stem, knots, QA verdict),
-// and the scan folder written from it (log.json, maps/, maps_float/, qa/).
+// The work of `sawyer scan`, shared with `sawyer run`: the CT input opened, turned into the
+// scanner's axes, scanned by the scan library's one call (ct::scan_log: stem, knots, QA
+// verdict), and the scan folder written from it (log.json, maps/, maps_float/, qa/).
+//
+//   ScanJobOptions o{.input = "scans/log17", .species = "spruce"};
+//   Result<std::unique_ptr<SliceSource>> src = open_scan(o);        // headers only
+//   Result<ScanJob> job = scan_ct(o, progress, std::move(src).value());
+//   Status st = write_scan_files(job.value(), o, empty_dir);
 #pragma once
 
 #include <filesystem>
 #include <memory>
 #include <string>
 
-#include "ct_options.h"
 #include "sawyer/core/result.h"
 #include "sawyer/ct/scan_log.h"
+#include "sawyer/ct/slice_source.h"
 
-namespace sawyer::app {
+namespace sawyer::ct {
 
 struct ScanJobOptions {
   std::string input, species = "unknown", id;  // id "": the scan's folder or file name
-  CtCliOptions ct;
-  int threads = 0;  // 0: every core
-  int qa_slices = 4;
+  OpenOptions open;                            // series, spacings, rescale, the z policy
+  int threads = 0;                             // 0: every core
+  int qa_slices = 4;                           // cross-sections in qa/
 };
 
 struct ScanJob {
-  std::unique_ptr<ct::SliceSource> source;  // kept open: the QA images read a few slices again
-  ct::ScanResult scan;
+  std::unique_ptr<SliceSource> source;  // kept open: the QA images read a few slices again
+  ScanResult scan;
   const LogModel& log() const { return scan.log; }
   bool trusted() const { return scan.qa.verdict.trusted; }
 };
 
 // Opens the scan (headers only: format, geometry, the z grid), turned into the scanner's axes.
 // Errors name the input.
-Result<std::unique_ptr<ct::SliceSource>> open_scan(const ScanJobOptions& options);
+Result<std::unique_ptr<SliceSource>> open_scan(const ScanJobOptions& options);
 
 // Analyses the scan opened by open_scan(). Errors name the input and the problem.
-Result<ScanJob> scan_ct(const ScanJobOptions& options, const ct::ScanProgress& progress,
-                        std::unique_ptr<ct::SliceSource> opened);
+Result<ScanJob> scan_ct(const ScanJobOptions& options, const ScanProgress& progress,
+                        std::unique_ptr<SliceSource> opened);
 
 // Writes the scan folder's files into `dir` (an existing, empty folder): log.json, then
 // write_scan_extras().
@@ -47,4 +52,4 @@ Status write_scan_extras(const ScanJob& job, const ScanJobOptions& options,
 // The QA verdict for a terminal: the headline, then each failed stage's notes, indented.
 std::string qa_report(const ScanQa& qa);
 
-}  // namespace sawyer::app
+}  // namespace sawyer::ct

@@ -1,5 +1,5 @@
 // The work of `sawyer scan` (see scan_job.h).
-#include "scan_job.h"
+#include "sawyer/ct/jobs/scan_job.h"
 
 #include <algorithm>
 #include <string>
@@ -10,30 +10,30 @@
 #include "sawyer/maps/published_maps.h"
 #include "sawyer/model/log_json.h"
 
-namespace sawyer::app {
+namespace sawyer::ct {
 
 namespace fs = std::filesystem;
 
 // The scan pass measures in the slice's own axes; turned here so that they are the scanner's
 // (oblique scans are refused before anything is written).
-Result<std::unique_ptr<ct::SliceSource>> open_scan(const ScanJobOptions& c) {
-  auto opened = ct::open_ct(c.input, to_open_options(c.ct));
+Result<std::unique_ptr<SliceSource>> open_scan(const ScanJobOptions& c) {
+  auto opened = open_ct(c.input, c.open);
   if (!opened) return opened.error();
-  return ct::to_scanner_axes(std::move(opened).value(), c.input);
+  return to_scanner_axes(std::move(opened).value(), c.input);
 }
 
-Result<ScanJob> scan_ct(const ScanJobOptions& c, const ct::ScanProgress& progress,
-                        std::unique_ptr<ct::SliceSource> opened) {
+Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
+                        std::unique_ptr<SliceSource> opened) {
   ScanJob job;
   job.source = std::move(opened);
   const fs::path in = fs::path(c.input).lexically_normal();
   const std::string name = (in.has_filename() ? in : in.parent_path()).filename().string();
-  ct::ScanOptions o;
+  ScanOptions o;
   o.threads = c.threads;
   o.id = c.id.empty() ? name : c.id;
   o.species = c.species;
   o.source_name = name;
-  auto scan = ct::scan_log(*job.source, o, progress);
+  auto scan = scan_log(*job.source, o, progress);
   if (!scan) return scan.error().with_context(c.input);
   job.scan = std::move(scan.value());
   return job;
@@ -47,11 +47,11 @@ Status write_scan_files(const ScanJob& job, const ScanJobOptions& c, const fs::p
 Status write_scan_extras(const ScanJob& job, const ScanJobOptions& c, const fs::path& dir) {
   if (Status w = export_published_maps(job.log(), dir / "maps"); !w) return w;
   if (Status w = export_float_maps(job.log(), dir / "maps_float"); !w) return w;
-  return ct::write_scan_qa_images(job.scan, *job.source, dir / "qa", c.qa_slices);
+  return write_scan_qa_images(job.scan, *job.source, dir / "qa", c.qa_slices);
 }
 
 std::string qa_report(const ScanQa& qa) {
-  std::string s = ct::qa_headline(qa);
+  std::string s = qa_headline(qa);
   for (const ScanQa::Stage& st : qa.stages) {
     if (st.ok) continue;
     for (const std::string& n : st.notes)
@@ -61,4 +61,4 @@ std::string qa_report(const ScanQa& qa) {
   return s;
 }
 
-}  // namespace sawyer::app
+}  // namespace sawyer::ct

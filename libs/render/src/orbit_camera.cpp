@@ -1,9 +1,9 @@
-#include "orbit_camera.h"
+#include "sawyer/render/orbit_camera.h"
 
 #include <algorithm>
 #include <cmath>
 
-namespace sawyer::view {
+namespace sawyer::render {
 
 void OrbitCamera::frame_log(const LogModel& log, double aspect) {
   yaw = 0.35;
@@ -47,7 +47,7 @@ void OrbitCamera::frame_points(const std::vector<Vec3>& points, double aspect, d
   // it only shrinks as the eye moves back along the view direction, so bisect for `margin`.
   auto reach_at = [&](double d) {
     distance = d;
-    const render::Camera cam = camera();
+    const Camera cam = camera();
     const render::Mat4 view = cam.view(), proj = cam.projection(std::max(aspect, 0.05));
     double reach = 0;
     for (const Vec3& p : points) {
@@ -112,10 +112,10 @@ void OrbitCamera::view_top() {
 
 void OrbitCamera::toggle_projection() { orthographic = !orthographic; }
 
-render::Camera OrbitCamera::camera() const {
-  render::Camera c = render::Camera::orbit(target, distance, yaw, pitch,
-                                           orthographic ? render::Camera::Projection::kOrthographic
-                                                        : render::Camera::Projection::kPerspective);
+Camera OrbitCamera::camera() const {
+  Camera c = Camera::orbit(
+      target, distance, yaw, pitch,
+      orthographic ? Camera::Projection::kOrthographic : Camera::Projection::kPerspective);
   c.fov_y = fov_y;
   c.ortho_height = visible_height();
   c.near_mm = std::max(1.0, 0.02 * distance);
@@ -123,4 +123,4 @@ render::Camera OrbitCamera::camera() const {
   return c;
 }
 
-}  // namespace sawyer::view
+}  // namespace sawyer::render

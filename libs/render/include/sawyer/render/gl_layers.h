@@ -13,14 +13,14 @@
 
 #include <string>
 
-#include "knot_mesh.h"
 #include "sawyer/core/result.h"
 #include "sawyer/render/camera.h"
 #include "sawyer/render/framebuffer.h"
 #include "sawyer/render/image.h"
+#include "sawyer/render/mesh.h"
 #include "sawyer/render/shader_program.h"
 
-namespace sawyer::view {
+namespace sawyer::render {
 
 // An RGBA8 colour texture behind a framebuffer object, with an optional depth texture.
 class GlTarget {
@@ -43,8 +43,8 @@ class GlTarget {
   // sample): a smaller translucent layer depth-tested against a full-size opaque one.
   void copy_depth_from(const GlTarget& source) const;
   // Copies the colour into `rect` of the window's default framebuffer (scaled, linear).
-  void blit_to_window(const render::Viewport& rect) const;
-  render::Viewport viewport() const { return {0, 0, width_, height_}; }
+  void blit_to_window(const Viewport& rect) const;
+  Viewport viewport() const { return {0, 0, width_, height_}; }
   int width() const { return width_; }
   int height() const { return height_; }
   unsigned texture() const { return color_; }
@@ -79,21 +79,18 @@ class GpuMesh {
 // Draws GpuMeshes with depth test, lit by a light that moves with the camera.
 class MeshPainter {
  public:
-  // Compiles the viewer's mesh shaders (apps/viewer/shaders, embedded at build time).
+  // Compiles the viewer's mesh shaders (shaders/mesh.vert and mesh.frag, embedded at build time).
   Status init();
   // Lines are one pixel wide (core profiles refuse wider ones). Nothing below `clip_z0` (mm
   // along the log) is drawn.
-  void draw(const GpuMesh& mesh, const render::Camera& camera, const render::Viewport& viewport,
+  void draw(const GpuMesh& mesh, const Camera& camera, const Viewport& viewport,
             double clip_z0 = -1e30) const;
 
  private:
-  render::ShaderProgram program_;
+  ShaderProgram program_;
 };
 
 // The window's back buffer (what the next swap shows) as RGB, rows top to bottom.
-render::Image read_window(int width, int height);
+Image read_window(int width, int height);
 
-// One of the viewer's embedded shader files ("mesh.vert"); empty when unknown.
-std::string viewer_shader(const std::string& name);
-
-}  // namespace sawyer::view
+}  // namespace sawyer::render

@@ -1,4 +1,4 @@
-#include "sawing_session.h"
+#include "sawyer/sawing/sawing_session.h"
 
 #include <nlohmann/json.hpp>
 
@@ -11,7 +11,7 @@
 #include "sawyer/sawing/sawing_file.h"
 #include "sawyer/sawing/setup.h"
 
-namespace sawyer::view {
+namespace sawyer::sawing {
 namespace {
 
 namespace fs = std::filesystem;
@@ -110,17 +110,8 @@ Vec2 SawingSession::scanner_to_pattern_delta(double dx, double dy) const {
   return {c * dx - s * dy, s * dx + c * dy};
 }
 
-render::Board SawingSession::board_in_scanner(size_t i) const {
-  const BoardPlacement p = board_placement(*saw_log_, sawn_.boards.at(i), pos_);
-  render::Board r;
-  r.cx = p.cx;
-  r.cy = p.cy;
-  r.rotation = p.rotation;
-  r.width = p.width;
-  r.thickness = p.thickness;
-  r.z0 = p.z0;
-  r.z1 = p.z1;
-  return r;
+BoardBox SawingSession::board_in_scanner(size_t i) const {
+  return board_placement(*saw_log_, sawn_.boards.at(i), pos_);
 }
 
 std::string SawingSession::to_json(const std::string& log_id) const {
@@ -147,4 +138,4 @@ Result<LogPosition> read_saw_position(const fs::path& path) {
   return r.value().chosen.pos;
 }
 
-}  // namespace sawyer::view
+}  // namespace sawyer::sawing

@@ -13,7 +13,7 @@
 #include "sawyer/model/log_model.h"
 #include "sawyer/render/scene.h"
 
-namespace sawyer::view {
+namespace sawyer::render {
 
 using Rgb = std::array<float, 3>;
 
@@ -43,7 +43,7 @@ struct KnotTubeOptions {
 Mesh knot_tubes(const LogModel& log, const KnotTubeOptions& options = {});
 
 // The twelve edges of a board's box, as lines.
-Mesh board_outline(const render::Board& board, const Rgb& color);
+Mesh board_outline(const BoardBox& board, const Rgb& color);
 
 // The outer surface under the bark as a light mesh: `angles` around (the stem's outline,
 // interpolated), a ring every `step_mm` along the log and at both ends, outward normals.
@@ -52,4 +52,4 @@ Mesh log_surface(const Stem& stem, const Rgb& color, int angles = 120, double st
 // The pith line from the first to the last stem sample, as lines.
 Mesh pith_line(const Stem& stem, const Rgb& color);
 
-}  // namespace sawyer::view
+}  // namespace sawyer::render

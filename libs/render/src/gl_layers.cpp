@@ -1,4 +1,4 @@
-#include "gl_layers.h"
+#include "sawyer/render/gl_layers.h"
 
 #include <algorithm>
 #include <cstddef>
@@ -6,26 +6,7 @@
 
 #include "gl.h"
 
-namespace sawyer::view {
-namespace {
-
-struct EmbeddedFile {
-  const char* name;
-  const char* text;
-};
-
-const EmbeddedFile kShaders[] = {
-#include "viewer_shaders.inc"
-};
-
-}  // namespace
-
-std::string viewer_shader(const std::string& name) {
-  for (const EmbeddedFile& f : kShaders)
-    if (name == f.name) return f.text;
-  return {};
-}
-
+namespace sawyer::render {
 GlTarget::~GlTarget() { release(); }
 
 void GlTarget::release() {
@@ -105,7 +86,7 @@ void GlTarget::copy_depth_from(const GlTarget& source) const {
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
 }
 
-void GlTarget::blit_to_window(const render::Viewport& r) const {
+void GlTarget::blit_to_window(const Viewport& r) const {
   glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
   const bool same = r.width == width_ && r.height == height_;
@@ -145,17 +126,16 @@ void GpuMesh::upload(const Mesh& mesh) {
 }
 
 Status MeshPainter::init() {
-  const std::string vs = viewer_shader("mesh.vert"), fs = viewer_shader("mesh.frag");
-  if (vs.empty() || fs.empty()) return Error("apps/viewer/shaders", "mesh shaders not embedded");
-  Result<render::ShaderProgram> p =
-      render::ShaderProgram::build_from_text("mesh.vert", vs, "mesh.frag", fs);
+  const std::string vs = embedded_shader("mesh.vert"), fs = embedded_shader("mesh.frag");
+  if (vs.empty() || fs.empty()) return Error("MeshPainter::init", "mesh shaders not embedded");
+  Result<ShaderProgram> p = ShaderProgram::build_from_text("mesh.vert", vs, "mesh.frag", fs);
   if (!p) return p.error();
   program_ = std::move(p).value();
   return Status::Ok();
 }
 
-void MeshPainter::draw(const GpuMesh& mesh, const render::Camera& camera,
-                       const render::Viewport& vp, double clip_z0) const {
+void MeshPainter::draw(const GpuMesh& mesh, const Camera& camera, const Viewport& vp,
+                       double clip_z0) const {
   if (mesh.count() == 0) return;
   glUseProgram(program_.id());
   const render::Mat4 m = camera.view_projection(vp.aspect());
@@ -179,7 +159,7 @@ void MeshPainter::draw(const GpuMesh& mesh, const render::Camera& camera,
   glUseProgram(0);
 }
 
-render::Image read_window(int width, int height) {
+Image read_window(int width, int height) {
   const size_t row = static_cast<size_t>(width) * 4;
   std::vector<std::uint8_t> raw(row * height);
   glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
@@ -187,7 +167,7 @@ render::Image read_window(int width, int height) {
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
   glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, raw.data());
   // RGB, rows top to bottom (OpenGL's run bottom to top); the window has no meaningful alpha.
-  render::Image img;
+  Image img;
   img.width = width;
   img.height = height;
   img.channels = 3;
@@ -201,4 +181,4 @@ render::Image read_window(int width, int height) {
   return img;
 }
 
-}  // namespace sawyer::view
+}  // namespace sawyer::render

@@ -1,0 +1,82 @@
+// The main job, `sawyer run`, as one library call: a CT scan in; its stem and knots, the best
+// sawing position, the run folder (scan/, sawing.json, run.json, report/) and the register's row
+// out. The front end parses options, calls run_job() and prints the outcome.
+//
+//   RunJobOptions o;
+//   o.scan.input = "scans/log17";
+//   o.output = "runs/log17";
+//   RunObserver obs{.update = bar_update, .done = bar_done, .decision = print_line};
+//   Result<std::unique_ptr<RunOutcome>> r = run_job(o, obs);
+//   if (r && !r.value()->scan.trusted()) ...   // written whole, but the QA verdict failed
+//
+// Order: everything named in the options is checked before the scan starts (the sawing files,
+// the register), then the scan is opened (headers only), then the output is checked and locked.
+// The run folder is written whole or not at all (write_dir_atomic); the register's row is the
+// last thing written, so a register that refuses it leaves no output behind either.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sawyer/core/result.h"
+#include "sawyer/ct/jobs/scan_job.h"
+#include "sawyer/model/log_summary.h"
+#include "sawyer/report/report.h"
+#include "sawyer/report/run_folder.h"
+#include "sawyer/sawing/sawing_job.h"
+
+namespace sawyer::ct {
+
+struct RunJobOptions {
+  ScanJobOptions scan;
+  std::string output;  // the run folder to write; replaced whole (an earlier run or empty)
+  std::string db;      // the register; "": $SAWYER_DB or the default (register_path)
+  sawing::SawNames names;
+  sawing::OptimiseOptions optimise;
+  bool no_register = false, no_report = false;
+  // How a reader's note that names a library option reads in run.json (the front end's words
+  // for it, e.g. its flags); unchanged when empty.
+  std::function<std::string(const std::string&)> word_note;
+};
+// Messages about the options name them as "RunJobOptions::output", "RunJobOptions::db" and
+// "RunJobOptions::no_register" (docs/style.md 6).
+
+// Progress, all called on the calling thread (`update` also from the scan's and the
+// optimiser's progress callbacks, which they call on it).
+struct RunObserver {
+  // A stage ("scan", "saw", "report") has done `done` of `total` units.
+  std::function<void(const char* stage, int done, int total, const char* unit)> update;
+  // A stage ended after `seconds`, with a short note ("793 slices, 108 knots").
+  std::function<void(const char* stage, double seconds, const std::string& note)> done;
+  // The decision, as soon as it is known and before the files are written: one line.
+  std::function<void(const std::string& line)> decision;
+};
+
+// Held by pointer: the sawing outcome refers to the scan's log model inside it.
+struct RunOutcome {
+  ScanJob scan;
+  sawing::SawSetup setup;
+  std::optional<sawing::SawingOutcome> sawn;  // set once the job has sawn the log
+  LogSummary summary;
+  std::vector<report::RunInfo::Stage> stages;  // as run.json states them
+  report::ReportFiles report;                  // empty with no_report
+  std::filesystem::path out_dir, db;           // db: empty with no_register
+  double seconds = 0;                          // the whole job
+  const LogModel& log() const { return scan.log(); }
+  const sawing::SawingOutcome& outcome() const { return *sawn; }
+  // The position the files state: the given one, else the optimiser's best.
+  const sawing::LogPosition& position() const;
+};
+
+Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& options,
+                                            const RunObserver& observer = {});
+
+// The decision line printed before the files are written: "position: rot 30.0° x +5.0 y +0.0 mm,
+// 123.45 EUR; saw set-up: ...".
+std::string decision_line(const sawing::SawSetup& setup, const sawing::SawingOutcome& sawing);
+
+}  // namespace sawyer::ct

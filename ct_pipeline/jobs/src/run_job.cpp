@@ -1,0 +1,261 @@
+// The main job, `sawyer run` (see run_job.h): scan, saw, then the run folder and the register.
+#include "sawyer/ct/jobs/run_job.h"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <future>
+#include <optional>
+#include <utility>
+
+#include "sawyer/core/file_util.h"
+#include "sawyer/core/output_guard.h"
+#include "sawyer/model/log_json.h"
+#include "sawyer/register/ct_checksum.h"
+#include "sawyer/register/log_register.h"
+#include "sawyer/sawing/placement.h"
+#include "sawyer/sawing/sawing_file.h"
+
+namespace sawyer::ct {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using Stage = report::RunInfo::Stage;
+
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::string utc_now() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char s[32];
+  std::strftime(s, sizeof s, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return s;
+}
+
+std::string note_text(const char* format, auto... values) {
+  char note[128];
+  std::snprintf(note, sizeof note, format, values...);
+  return note;
+}
+
+report::RunRecord run_record(const RunJobOptions& c, const ScanJob& scan, const std::string& source,
+                             const std::string& checksum, const std::string& date,
+                             const std::vector<Stage>& stages) {
+  report::RunRecord r;
+  report::RunInfo& in = r.info;
+  in.log_id = scan.log().id;
+  in.species = scan.log().species;
+  in.scan_source = source;
+  in.scan_description = scan.source->description();
+  // Every note of the reader (resampled gaps, ignored files), and the resampling in one line.
+  if (std::string z = resampling_summary(scan.source->geometry()); !z.empty())
+    in.scan_notes.push_back(z);
+  for (const std::string& n : scan.source->notes())
+    in.scan_notes.push_back(c.word_note ? c.word_note(n) : n);
+  const ZResampling& zr = scan.source->geometry().z_resampling;
+  r.z_resampling = {zr.resampled, zr.source_slices, zr.invented_slices,
+                    zr.gaps,      zr.widest_gap_mm, zr.widest_gap_z0};
+  r.scanner_frame = scan.log().scanner_frame;
+  in.scan_checksum = checksum;
+  r.slices = scan.scan.stem.slices.size();
+  r.knots = scan.log().knots.size();
+  r.qa = scan.log().qa;
+  in.date = date;
+  in.sawyer_version = SAWYER_VERSION;
+  in.pattern = c.names.pattern;
+  in.grading = c.names.grading;
+  in.prices = c.names.prices;
+  in.position = c.names.position;
+  in.stages = stages;
+  return r;
+}
+
+reg::LogRecord register_record(const RunOutcome& run, const std::string& source,
+                               const std::string& checksum, const std::string& date) {
+  const LogModel& log = run.log();
+  const LogSummary& s = run.summary;
+  const sawing::SawSetup& su = run.setup;
+  const sawing::SawingOutcome& out = run.outcome();
+  reg::LogRecord r;
+  r.scan_source = source;
+  r.scan_checksum = checksum;
+  r.log_id = log.id;
+  r.species = log.species;
+  r.length_m = s.length_mm * 1e-3;
+  r.butt_diameter_mm = s.butt_diameter_mm;
+  r.top_diameter_mm = s.top_diameter_mm;
+  r.mean_diameter_mm = s.mean_diameter_mm;
+  r.volume_m3 = s.volume_m3;
+  r.taper_mm_per_m = s.taper_mm_per_m;
+  r.knot_count = s.knot_count;
+  r.pattern = su.pattern.name;
+  r.grading = su.rules.name;
+  const sawing::LogPosition& p = run.position();
+  r.rotation_deg = p.rotation_deg;
+  r.offset_x_mm = p.offset_x_mm;
+  r.offset_y_mm = p.offset_y_mm;
+  r.value = out.chosen_value().value;
+  const double hd = out.opt.horns_down.value;
+  r.gain_over_horns_down =
+      su.position ? (hd > 0 ? r.value / hd - 1 : 0.0) : out.opt.gain_over_horns_down;
+  r.currency = su.prices.currency;
+  r.output_dir = run.out_dir.string();
+  r.report_path = (run.out_dir / "report" / "report.pdf").string();
+  r.scanned_at = date;
+  return r;
+}
+
+}  // namespace
+
+const sawing::LogPosition& RunOutcome::position() const {
+  return setup.position ? *setup.position : sawn->opt.best.pos;
+}
+
+std::string decision_line(const sawing::SawSetup& su, const sawing::SawingOutcome& out) {
+  const sawing::LogPosition& p = su.position ? *su.position : out.opt.best.pos;
+  return note_text("position: rot %.1f° x %+.1f y %+.1f mm, %.2f ", p.rotation_deg, p.offset_x_mm,
+                   p.offset_y_mm, out.chosen_value().value) +
+         su.prices.currency + "; saw set-up: " + sawing::saw_setup_line(out.saw_log, p);
+}
+
+Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObserver& obs) {
+  const auto t_all = Clock::now();
+  const std::string date = utc_now();
+  auto update = [&](const char* stage, int done, int total, const char* unit) {
+    if (obs.update) obs.update(stage, done, total, unit);
+  };
+  auto stage_done = [&](const char* stage, double seconds, const std::string& note) {
+    if (obs.done) obs.done(stage, seconds, note);
+  };
+  auto run = std::make_unique<RunOutcome>();
+  // Everything named in the options is checked before the scan starts.
+  Result<sawing::SawSetup> setup = sawing::load_saw_setup(c.names, c.optimise);
+  if (!setup) return setup.error();
+  run->setup = std::move(setup.value());
+  const sawing::SawSetup& su = run->setup;
+  std::error_code ec;
+  run->out_dir = fs::absolute(c.output, ec).lexically_normal();
+  const fs::path source_path = fs::weakly_canonical(c.scan.input, ec);
+  const std::string source = ec ? c.scan.input : source_path.string();
+  std::optional<reg::LogRegister> reg;
+  if (!c.no_register) {
+    Result<fs::path> db_path =
+        reg::register_path(c.db, "RunJobOptions::db", "RunJobOptions::no_register");
+    if (!db_path) return db_path.error();
+    run->db = db_path.value();
+    Result<reg::LogRegister> r = reg::LogRegister::open(run->db);
+    if (!r) return r.error();
+    reg.emplace(std::move(r.value()));
+  }
+  // Then the scan is opened (headers only), then the output is checked.
+  auto opened = open_scan(c.scan);
+  if (!opened) return opened.error();
+  // The output may replace only an empty folder or an earlier run folder, never the scan or a
+  // folder around it; the lock makes a second run of the same output refuse at once.
+  OutputRequest out_req{c.output, OutputKind::kRunFolder, {c.scan.input}, "RunJobOptions::output"};
+  for (const fs::path& f : sawing::setup_input_files(c.names)) out_req.inputs.push_back(f);
+  if (!c.db.empty()) out_req.inputs.emplace_back(c.db);
+  Result<OutputLock> lock = OutputLock::acquire(out_req);
+  if (!lock) return lock.error();
+
+  std::vector<Stage>& stages = run->stages;
+  auto t = Clock::now();
+  Result<ScanJob> scanned = scan_ct(
+      c.scan,
+      [&](const char* stage, int done, int total) {
+        if (std::string(stage) == "stem")
+          update("scan", done, total, "slices");
+        else if (done == 0)
+          update("scan", 1, 1, "slices; knots...");
+      },
+      std::move(opened.value()));
+  if (!scanned) return scanned.error();
+  run->scan = std::move(scanned.value());
+  const ScanJob& scan = run->scan;
+  stages.push_back({"scan", since(t)});
+  const LogModel& log = scan.log();
+  run->summary = summarize(log);
+  stage_done("scan", stages.back().seconds,
+             note_text("%zu slices, %zu knots", scan.scan.stem.slices.size(), log.knots.size()));
+
+  t = Clock::now();
+  Result<sawing::SawingOutcome> sawn = sawing::saw_log_model(
+      log, su, [&](int done, int total) { update("saw", done, total, "positions"); });
+  if (!sawn) return sawn.error().with_context(log.id);
+  run->sawn.emplace(std::move(sawn.value()));
+  const sawing::SawingOutcome& out = run->outcome();
+  stages.push_back({"saw", since(t)});
+  stage_done(
+      "saw", stages.back().seconds,
+      note_text("%d positions, %zu boards", out.opt.positions, out.chosen_sawn().boards.size()));
+  // The decision first, for the operator at the saw: the files and the report follow.
+  if (obs.decision) obs.decision(decision_line(su, out));
+
+  std::string checksum;
+  double report_seconds = 0;
+  Status st = write_dir_atomic(run->out_dir, [&](const fs::path& tmp) -> Status {
+    fs::create_directories(tmp / "scan");
+    if (Status w = write_log_json(log, tmp / "scan" / "log.json"); !w) return w;
+    const nlohmann::ordered_json saw_file = sawing::sawing_file_json(log, su, out);
+    if (Status w = write_text_file_atomic(tmp / "sawing.json", saw_file.dump(1) + "\n"); !w)
+      return w;
+    if (!c.no_register) {
+      t = Clock::now();
+      Result<std::string> sum = reg::ct_checksum(c.scan.input);
+      if (!sum) return sum.error();
+      checksum = sum.value();
+      stages.push_back({"checksum", since(t)});
+    }
+    if (Status w = report::write_run_file(run_record(c, scan, source, checksum, date, stages),
+                                          tmp / "run.json");
+        !w)
+      return w;
+    // The maps and QA images are written beside the report (mostly single-threaded work on
+    // both sides); the future's destructor waits for them on every way out of this function.
+    double write_seconds = 0;
+    std::future<Status> extras = std::async(std::launch::async, [&] {
+      const auto t0 = Clock::now();
+      Status w = write_scan_extras(scan, c.scan, tmp / "scan");
+      write_seconds = since(t0);
+      return w;
+    });
+    if (!c.no_report) {
+      t = Clock::now();
+      Result<report::RunFolder> folder = report::load_run_folder(tmp);
+      if (!folder) return folder.error();
+      Result<report::ReportFiles> files = report::write_report(
+          folder.value(), tmp / "report", {},
+          [&](int done, int total, const std::string&) { update("report", done, total, "steps"); });
+      if (!files) return files.error();
+      run->report = files.value();
+      report_seconds = since(t);
+      stage_done("report", report_seconds,
+                 note_text("%d pages, %zu images", run->report.pages, run->report.images.size()));
+    }
+    if (Status w = extras.get(); !w) return w;
+    // run.json again with the times of the work done since (the report shows scan and saw).
+    stages.push_back({"write", write_seconds});
+    if (!c.no_report) stages.push_back({"report", report_seconds});
+    if (Status w = report::write_run_file(run_record(c, scan, source, checksum, date, stages),
+                                          tmp / "run.json");
+        !w)
+      return w;
+    // Last, so that a register that refuses the row leaves no output behind either.
+    if (reg) {
+      if (Status w = reg->upsert(register_record(*run, source, checksum, date)); !w) return w;
+    }
+    return Status::Ok();
+  });
+  if (!st) return st.error();
+  run->seconds = since(t_all);
+  return run;
+}
+
+}  // namespace sawyer::ct
