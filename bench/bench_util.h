@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "sawyer/core/result.h"
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/phantom/phantom.h"
 
 namespace sawyer::bench {
 

@@ -16,8 +16,8 @@
 #include <iostream>
 #include <string>
 
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 
 using namespace sawyer;
 

@@ -11,7 +11,7 @@
 // with steel support bars and a chain in some slices; "coarse", 10 mm slices of 1 mm pixels over
 // the same length) it renders N slices (5 mm apart) around F of the log's length in memory, runs
 // the stem pass (which keeps the log's voxels) and the knot pass, and matches the knots found to
-// the phantom's true knots (ct_pipeline/knots/include/sawyer/ct/knot_match.h): a pair has its
+// the phantom's true knots (ct_pipeline/knots/include/sawyer/ct/knots/knot_match.h): a pair has its
 // azimuth within 15° and its height within 15 mm at r = min(50 mm, both knots' r_end), nearest
 // first. True knots count when they lie whole
 // inside the section (5 mm from its ends) and, for recall, are at least 10 mm thick; a found
@@ -30,13 +30,13 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/knot_match.h"
-#include "sawyer/ct/knot_scan.h"
-#include "sawyer/ct/log_volume.h"
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/phantom_source.h"
-#include "sawyer/ct/scan_log.h"
-#include "sawyer/ct/stem_scan.h"
+#include "sawyer/ct/knots/knot_match.h"
+#include "sawyer/ct/knots/log_volume.h"
+#include "sawyer/ct/phantom/phantom.h"
+#include "sawyer/ct/phantom/phantom_source.h"
+#include "sawyer/ct/scan/knot_scan.h"
+#include "sawyer/ct/scan/scan_log.h"
+#include "sawyer/ct/scan/stem_scan.h"
 #include "sawyer/model/log_generator.h"
 #include "sawyer/model/log_json.h"
 

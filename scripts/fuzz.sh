@@ -15,8 +15,8 @@ for p in clang libclang-rt-14-dev; do
 done
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DSAWYER_BUILD_TESTS=OFF -DSAWYER_BUILD_FUZZERS=ON >/dev/null
-cmake --build build-fuzz --target fuzz_dicom fuzz_image_stack fuzz_vtk_volume fuzz_sawing_files fuzz_log_json fuzz_sidecar
-for t in fuzz_dicom fuzz_image_stack fuzz_vtk_volume fuzz_sawing_files fuzz_log_json fuzz_sidecar; do
+cmake --build build-fuzz --target fuzz_dicom fuzz_image_stack fuzz_vtk_volume fuzz_sawing_files fuzz_sawing_record fuzz_log_json fuzz_sidecar
+for t in fuzz_dicom fuzz_image_stack fuzz_vtk_volume fuzz_sawing_files fuzz_sawing_record fuzz_log_json fuzz_sidecar; do
   mkdir -p "build-fuzz/corpus/$t" "build-fuzz/crashes/$t"
   dirs=("build-fuzz/corpus/$t")
   [ -d "tests/fuzz/corpus/$t" ] && dirs+=("tests/fuzz/corpus/$t")

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/stem_detect.h"
+#include "sawyer/ct/phantom/phantom.h"
+#include "sawyer/ct/stem/stem_detect.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
 

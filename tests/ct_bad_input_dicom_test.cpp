@@ -22,8 +22,8 @@
 #include <random>
 #include <string>
 
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 #include "sawyer/test/test_util.h"
 
 namespace sawyer::ct {

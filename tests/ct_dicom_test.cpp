@@ -30,8 +30,8 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 #include "sawyer/test/test_util.h"
 
 // ---------------------------------------------------------------------------------------------

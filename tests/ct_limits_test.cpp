@@ -1,4 +1,4 @@
-// Limits on CT input (sawyer/ct/limits.h): spacing, size, field of view, z extent and memory,
+// Limits on CT input (sawyer/ct/io/limits.h): spacing, size, field of view, z extent and memory,
 // checked where each value enters and once more in open_ct; how much resampling along z may
 // invent; what a scan folder holds for the readers and the checksum (no link loops, no FIFOs).
 // Each case asserts the refusal, one line naming the file (or option) and the value, and that a
@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/limits.h"
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/limits.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 #include "sawyer/register/ct_checksum.h"
 #include "sawyer/test/test_util.h"
 

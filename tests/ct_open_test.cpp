@@ -1,7 +1,7 @@
 // open_ct's dispatch: what a path holds decides the reader, and paths that hold no CT scan are
 // refused with one line that names the path and says what was expected.
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/phantom/phantom.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
 

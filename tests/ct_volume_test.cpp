@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "../ct_pipeline/io/src/readers.h"
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 #include "sawyer/test/ct_pattern.h"
 #include "sawyer/test/test_util.h"
 

@@ -12,11 +12,11 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/knot_detect.h"
-#include "sawyer/ct/log_volume.h"
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/phantom_source.h"
-#include "sawyer/ct/stem_scan.h"
+#include "sawyer/ct/knots/knot_detect.h"
+#include "sawyer/ct/knots/log_volume.h"
+#include "sawyer/ct/phantom/phantom.h"
+#include "sawyer/ct/phantom/phantom_source.h"
+#include "sawyer/ct/scan/stem_scan.h"
 #include "sawyer/model/log_generator.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/knot_fit.h"
+#include "sawyer/ct/knots/knot_fit.h"
 
 namespace sawyer::ct {
 namespace {

@@ -9,11 +9,11 @@
 #include <cstdio>
 #include <memory>
 
-#include "sawyer/ct/knot_match.h"
-#include "sawyer/ct/knot_scan.h"
-#include "sawyer/ct/log_volume.h"
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/phantom_source.h"
+#include "sawyer/ct/knots/knot_match.h"
+#include "sawyer/ct/knots/log_volume.h"
+#include "sawyer/ct/phantom/phantom.h"
+#include "sawyer/ct/phantom/phantom_source.h"
+#include "sawyer/ct/scan/knot_scan.h"
 #include "sawyer/test/test_util.h"
 
 namespace sawyer::ct {

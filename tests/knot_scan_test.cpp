@@ -9,13 +9,13 @@
 #include <memory>
 #include <string>
 
-#include "sawyer/ct/knot_match.h"
-#include "sawyer/ct/knot_scan.h"
-#include "sawyer/ct/log_volume.h"
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/phantom_source.h"
-#include "sawyer/ct/scan_log.h"
-#include "sawyer/ct/stem_scan.h"
+#include "sawyer/ct/knots/knot_match.h"
+#include "sawyer/ct/knots/log_volume.h"
+#include "sawyer/ct/phantom/phantom.h"
+#include "sawyer/ct/phantom/phantom_source.h"
+#include "sawyer/ct/scan/knot_scan.h"
+#include "sawyer/ct/scan/scan_log.h"
+#include "sawyer/ct/scan/stem_scan.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
 

@@ -16,8 +16,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/phantom/phantom.h"
 #include "sawyer/test/test_util.h"
 
 namespace sawyer::ct {

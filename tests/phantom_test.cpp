@@ -17,8 +17,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/phantom/phantom.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
 

@@ -14,11 +14,11 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/phantom_source.h"
-#include "sawyer/ct/pith_track.h"
-#include "sawyer/ct/stem_detect.h"
-#include "sawyer/ct/stem_scan.h"
+#include "sawyer/ct/phantom/phantom.h"
+#include "sawyer/ct/phantom/phantom_source.h"
+#include "sawyer/ct/scan/stem_scan.h"
+#include "sawyer/ct/stem/pith_track.h"
+#include "sawyer/ct/stem/stem_detect.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
 

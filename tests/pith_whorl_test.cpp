@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "sawyer/ct/pith_whorl.h"
+#include "sawyer/ct/stem/pith_whorl.h"
 
 namespace sawyer::ct {
 namespace {

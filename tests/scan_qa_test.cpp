@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/phantom_source.h"
-#include "sawyer/ct/scan_log.h"
-#include "sawyer/ct/scan_qa.h"
+#include "sawyer/ct/phantom/phantom.h"
+#include "sawyer/ct/phantom/phantom_source.h"
+#include "sawyer/ct/scan/scan_log.h"
+#include "sawyer/ct/scan/scan_qa.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
 

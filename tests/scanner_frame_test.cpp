@@ -22,9 +22,9 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/scanner_frame.h"
-#include "sawyer/ct/slice_sink.h"
+#include "sawyer/ct/io/scanner_frame.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/phantom/phantom.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/test/test_util.h"
 

@@ -1,6 +1,6 @@
 // The stem pass's own arithmetic: the robust pith track flags jumps and keeps a straight or
 // bowed pith, and re-centring a contour on another point is exact for a circle.
-#include "sawyer/ct/stem_scan.h"
+#include "sawyer/ct/scan/stem_scan.h"
 
 #include <gtest/gtest.h>
 

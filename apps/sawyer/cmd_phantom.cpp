@@ -12,7 +12,7 @@
 #include <string>
 
 #include "sawyer/core/output_guard.h"
-#include "sawyer/ct/phantom.h"
+#include "sawyer/ct/phantom/phantom.h"
 #include "sawyer/maps/open_log.h"
 
 namespace sawyer::app {

@@ -11,7 +11,7 @@
 
 #include "cli_error.h"
 #include "ct_options.h"
-#include "sawyer/ct/limits.h"
+#include "sawyer/ct/io/limits.h"
 
 namespace sawyer::app {
 

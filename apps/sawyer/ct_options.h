@@ -9,7 +9,7 @@
 #include <optional>
 #include <string>
 
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
 
 namespace sawyer::app {
 
@@ -22,7 +22,7 @@ struct CtCliOptions {
 
 // Adds --series, --pixel-spacing, --slice-spacing, --rescale-slope, --rescale-intercept,
 // --strict-z and --allow-gaps to `cmd`, bound to `o`. Spacings must be 0.01-50 mm (the readers'
-// limits, sawyer/ct/limits.h), the rescale slope non-zero within +-1e-4..1e4, the intercept
+// limits, sawyer/ct/io/limits.h), the rescale slope non-zero within +-1e-4..1e4, the intercept
 // within +-1e5: every number finite.
 void add_ct_options(CLI::App* cmd, CtCliOptions& o);
 

@@ -13,8 +13,8 @@
 #include <fstream>
 #include <string>
 
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 
 namespace {
 

@@ -10,7 +10,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "sawyer/ct/limits.h"
+#include "sawyer/ct/io/limits.h"
 #include "sidecar.h"
 
 namespace {

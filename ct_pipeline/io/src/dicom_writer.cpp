@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "readers.h"
-#include "sidecar.h"
+#include "staging.h"
 
 namespace sawyer::ct::detail {
 

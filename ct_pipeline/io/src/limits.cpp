@@ -1,21 +1,19 @@
 // The CT input limits of limits.h.
-#include "sawyer/ct/limits.h"
+#include "sawyer/ct/io/limits.h"
 
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
+#include "text_parse.h"
+
 namespace sawyer::ct {
 
 namespace {
 
 // Shortest faithful form: 0.4, 1e+300, nan.
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
+using detail::num6;
 
 std::string gib(double bytes) {
   char buf[32];
@@ -29,8 +27,8 @@ bool in_range(double v, double lo, double hi) { return std::isfinite(v) && v >= 
 
 Status check_spacing(const std::string& where, const std::string& what, double mm) {
   if (in_range(mm, kMinSpacingMm, kMaxSpacingMm)) return Status::Ok();
-  return Error(where, what + " " + num(mm) + " mm is outside " + num(kMinSpacingMm) + "-" +
-                          num(kMaxSpacingMm) + " mm");
+  return Error(where, what + " " + num6(mm) + " mm is outside " + num6(kMinSpacingMm) + "-" +
+                          num6(kMaxSpacingMm) + " mm");
 }
 
 Status check_geometry_limits(const std::string& where, const VolumeGeometry& g) {
@@ -43,10 +41,10 @@ Status check_geometry_limits(const std::string& where, const VolumeGeometry& g) 
   if (Status st = check_spacing(where, "pixel spacing (y)", g.spacing_y); !st) return st;
   const double fov_x = g.width * g.spacing_x, fov_y = g.height * g.spacing_y;
   if (fov_x > kMaxFieldOfViewMm || fov_y > kMaxFieldOfViewMm)
-    return Error(where, "field of view " + num(fov_x) + " x " + num(fov_y) + " mm (" +
+    return Error(where, "field of view " + num6(fov_x) + " x " + num6(fov_y) + " mm (" +
                             std::to_string(g.width) + " x " + std::to_string(g.height) +
-                            " pixels of " + num(g.spacing_x) + " x " + num(g.spacing_y) +
-                            " mm) is more than " + num(kMaxFieldOfViewMm) + " mm across");
+                            " pixels of " + num6(g.spacing_x) + " x " + num6(g.spacing_y) +
+                            " mm) is more than " + num6(kMaxFieldOfViewMm) + " mm across");
   const int n = g.slice_count();
   if (n < 1 || n > kMaxSliceCount)
     return Error(where, "slice count " + std::to_string(n) + " is outside 1-" +
@@ -54,12 +52,12 @@ Status check_geometry_limits(const std::string& where, const VolumeGeometry& g) 
   for (int i = 0; i < n; ++i) {
     if (!std::isfinite(g.z[static_cast<size_t>(i)]))
       return Error(where, "slice " + std::to_string(i) + " position " +
-                              num(g.z[static_cast<size_t>(i)]) + " mm is not a finite number");
+                              num6(g.z[static_cast<size_t>(i)]) + " mm is not a finite number");
   }
   const double extent = g.z.back() - g.z.front();
   if (!(std::abs(extent) <= kMaxZExtentMm))
-    return Error(where, "slices span " + num(extent) + " mm along z, more than " +
-                            num(kMaxZExtentMm) + " mm (" + num(kMaxZExtentMm / 1000) +
+    return Error(where, "slices span " + num6(extent) + " mm along z, more than " +
+                            num6(kMaxZExtentMm) + " mm (" + num6(kMaxZExtentMm / 1000) +
                             " m, longer than any log)");
   if (n >= 2) {
     if (Status st = check_spacing(where, "slice spacing", g.slice_spacing()); !st) return st;
@@ -69,20 +67,20 @@ Status check_geometry_limits(const std::string& where, const VolumeGeometry& g) 
       const double d = g.z[static_cast<size_t>(i)] - g.z[static_cast<size_t>(i) - 1];
       if (d >= 1e-3 && d < kMinSpacingMm)
         return Error(where, "slices " + std::to_string(i - 1) + " and " + std::to_string(i) +
-                                " are " + num(d) + " mm apart; slice spacing must be " +
-                                num(kMinSpacingMm) + "-" + num(kMaxSpacingMm) + " mm");
+                                " are " + num6(d) + " mm apart; slice spacing must be " +
+                                num6(kMinSpacingMm) + "-" + num6(kMaxSpacingMm) + " mm");
     }
   }
   for (double v : {g.origin.x, g.origin.y, g.origin.z}) {
     if (!in_range(v, -kMaxPositionMm, kMaxPositionMm))
-      return Error(where, "origin (" + num(g.origin.x) + ", " + num(g.origin.y) + ", " +
-                              num(g.origin.z) + ") mm is not within " + num(kMaxPositionMm) +
+      return Error(where, "origin (" + num6(g.origin.x) + ", " + num6(g.origin.y) + ", " +
+                              num6(g.origin.z) + ") mm is not within " + num6(kMaxPositionMm) +
                               " mm of the scanner's origin");
   }
   for (double v : g.orientation) {
     if (!in_range(v, -1.001, 1.001)) {
       std::string o;
-      for (double c : g.orientation) o += (o.empty() ? "" : " ") + num(c);
+      for (double c : g.orientation) o += (o.empty() ? "" : " ") + num6(c);
       return Error(where, "orientation (" + o + ") is not two sets of direction cosines");
     }
   }
@@ -114,8 +112,9 @@ Status check_memory(const std::string& where, const VolumeGeometry& g,
   if (need <= budget) return Status::Ok();
   return Error(where, std::to_string(g.width) + " x " + std::to_string(g.height) + " x " +
                           std::to_string(g.slice_count()) + " voxels need " + gib(need) +
-                          " as 16-bit voxels, more than " + num(kMemoryShare * 100) + " % of the " +
-                          gib(static_cast<double>(*available_bytes)) + " of memory available");
+                          " as 16-bit voxels, more than " + num6(kMemoryShare * 100) +
+                          " % of the " + gib(static_cast<double>(*available_bytes)) +
+                          " of memory available");
 }
 
 }  // namespace sawyer::ct

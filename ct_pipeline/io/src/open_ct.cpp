@@ -6,7 +6,8 @@
 #include <vector>
 
 #include "readers.h"
-#include "sawyer/ct/limits.h"
+#include "sawyer/ct/io/limits.h"
+#include "text_parse.h"
 
 namespace sawyer::ct {
 
@@ -42,11 +43,7 @@ double VolumeGeometry::slice_spacing() const {
 
 namespace {
 
-std::string lower_ext(const fs::path& p) {
-  std::string e = p.extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-  return e;
-}
+std::string lower_ext(const fs::path& p) { return detail::lower(p.extension().string()); }
 
 bool is_volume_ext(const std::string& e) {
   return e == ".vti" || e == ".mha" || e == ".mhd" || e == ".nrrd" || e == ".nhdr";

@@ -1,6 +1,6 @@
 // Decoding of the common CT PNG (8- or 16-bit grey, not interlaced) without libpng/OpenImageIO:
 // with libdeflate's inflate it takes about half the CPU per slice, and PNG decoding is what limits
-// reading a PNG stack. Every other PNG goes through OpenImageIO (image_stack.cpp).
+// reading a PNG stack. Every other PNG goes through OpenImageIO (image_stack_reader.cpp).
 #pragma once
 
 #include <cstdint>

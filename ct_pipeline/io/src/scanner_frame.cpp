@@ -1,6 +1,6 @@
 // to_scanner_axes(): axial slices mirrored and/or transposed so that x runs along the scanner's
 // +x and y along +y; oblique ones refused (see scanner_frame.h).
-#include "sawyer/ct/scanner_frame.h"
+#include "sawyer/ct/io/scanner_frame.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,4 +1,4 @@
-// The image-stack sidecar (sawyer_stack.json) and the staging folder the writers share. Internal.
+// The image-stack sidecar (sawyer_stack.json): its parser and its writer (sidecar.cpp). Internal.
 //
 // A TIFF or PNG slice carries no trustworthy geometry, so a stack comes with a small JSON file
 // beside it (docs/ct_input.md lists the keys):
@@ -12,7 +12,6 @@
 #pragma once
 
 #include <array>
-#include <cmath>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -20,7 +19,7 @@
 
 #include "sawyer/core/result.h"
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
 
 namespace sawyer::ct::detail {
 
@@ -49,37 +48,5 @@ Result<StackSidecar> read_stack_sidecar(const std::filesystem::path& file);
 // The sidecar the stack writer puts beside its slices: every key, z positions exactly as given.
 std::string format_stack_sidecar(const VolumeGeometry& geometry, double rescale_slope,
                                  double rescale_intercept, const std::vector<std::string>& files);
-
-// A temporary sibling folder ".<name>.tmp<random>" next to `out` that a writer fills slice by
-// slice; commit() moves it into place (replacing an existing `out` whole), and the destructor
-// removes it when commit() never ran, so a failed or abandoned write leaves nothing behind.
-class StagingDir {
- public:
-  static Result<StagingDir> create(const std::filesystem::path& out);
-  StagingDir(StagingDir&& other) noexcept;
-  StagingDir& operator=(StagingDir&&) = delete;
-  StagingDir(const StagingDir&) = delete;
-  StagingDir& operator=(const StagingDir&) = delete;
-  ~StagingDir();
-
-  const std::filesystem::path& path() const { return tmp_; }
-  const std::filesystem::path& out() const { return out_; }
-  Status commit();
-
- private:
-  StagingDir(std::filesystem::path out, std::filesystem::path tmp)
-      : out_(std::move(out)), tmp_(std::move(tmp)) {}
-  std::filesystem::path out_;
-  std::filesystem::path tmp_;  // empty once committed or moved from
-};
-
-// Both writers store HU as round((hu - intercept) / slope) clamped to [lo, hi] (callers refuse
-// non-finite HU first; NaN would map to lo).
-inline double stored_value(float hu, double slope, double intercept, double lo, double hi) {
-  const double v = (static_cast<double>(hu) - intercept) / slope;
-  if (!(v > lo)) return lo;  // also NaN
-  if (v >= hi) return hi;
-  return std::nearbyint(v);
-}
 
 }  // namespace sawyer::ct::detail

@@ -18,7 +18,8 @@
 #include <vector>
 
 #include "readers.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "text_parse.h"
 
 namespace sawyer::ct {
 
@@ -30,11 +31,7 @@ constexpr double kEvenTolerance = 0.01;       // fraction of the median spacing
 // beyond this fraction of a spacing the positions are resampled rather than relabelled.
 constexpr double kMaxSnap = 0.1;
 
-std::string mm(double v, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
+using detail::fixed;
 
 // Notes and messages print one decimal for ordinary spacings, more for sub-millimetre ones.
 int decimals_for(double spacing) { return spacing >= 1.0 ? 1 : 3; }
@@ -177,15 +174,15 @@ Status check_invented(const std::string& where, const ZResampling& info, int cou
   const bool too_many = info.invented_slices > 1 && fraction > options.max_invented_fraction;
   if (!too_many && info.widest_gap_mm <= options.max_gap_mm) return Status::Ok();
   const int dec = decimals_for(median);
-  return Error(where, "slices missing along z: resampling would invent " +
-                          std::to_string(info.invented_slices) + " of " + std::to_string(count) +
-                          " slices (" + mm(100.0 * fraction, 1) + " %, limit " +
-                          mm(100.0 * options.max_invented_fraction, 0) + " %) in " +
-                          std::to_string(info.gaps) + " gap" + (info.gaps == 1 ? "" : "s") +
-                          ", widest z=" + mm(info.widest_gap_z0, dec) + ".." +
-                          mm(info.widest_gap_z0 + info.widest_gap_mm, dec) + " mm (" +
-                          mm(info.widest_gap_mm, dec) + " mm, limit " + mm(options.max_gap_mm, 0) +
-                          " mm); OpenOptions::allow_gaps resamples anyway");
+  return Error(
+      where,
+      "slices missing along z: resampling would invent " + std::to_string(info.invented_slices) +
+          " of " + std::to_string(count) + " slices (" + fixed(100.0 * fraction, 1) + " %, limit " +
+          fixed(100.0 * options.max_invented_fraction, 0) + " %) in " + std::to_string(info.gaps) +
+          " gap" + (info.gaps == 1 ? "" : "s") + ", widest z=" + fixed(info.widest_gap_z0, dec) +
+          ".." + fixed(info.widest_gap_z0 + info.widest_gap_mm, dec) + " mm (" +
+          fixed(info.widest_gap_mm, dec) + " mm, limit " + fixed(options.max_gap_mm, 0) +
+          " mm); OpenOptions::allow_gaps resamples anyway");
 }
 
 }  // namespace
@@ -208,13 +205,13 @@ Result<std::unique_ptr<SliceSource>> detail::make_uniform_z(std::unique_ptr<Slic
   const std::string where = file.empty() ? source->description() : file;
   if (!(options.gap_tolerance > 1.0))
     return Error(where, "gap tolerance must be more than 1 median spacing, got " +
-                            mm(options.gap_tolerance, 2));
+                            fixed(options.gap_tolerance, 2));
   if (!(options.max_invented_fraction >= 0 && options.max_invented_fraction <= 1))
     return Error(where, "the share of invented slices allowed must be 0-1, got " +
-                            mm(options.max_invented_fraction, 3));
+                            fixed(options.max_invented_fraction, 3));
   if (!(options.max_gap_mm > 0) || !std::isfinite(options.max_gap_mm))
     return Error(where, "the widest gap allowed must be a positive number of mm, got " +
-                            mm(options.max_gap_mm, 1));
+                            fixed(options.max_gap_mm, 1));
 
   for (double v : z) {
     if (!std::isfinite(v) || std::abs(v) > 1e9)
@@ -225,12 +222,12 @@ Result<std::unique_ptr<SliceSource>> detail::make_uniform_z(std::unique_ptr<Slic
     if (std::abs(d) < kDuplicateTolerance)
       return Error(where, "duplicate slice positions: slices " + std::to_string(i - 1) + " and " +
                               std::to_string(i) +
-                              " both at z=" + mm(z[static_cast<size_t>(i)] - z[0], 3) + " mm");
+                              " both at z=" + fixed(z[static_cast<size_t>(i)] - z[0], 3) + " mm");
     if (d < 0)
       return Error(where, "slice positions go backwards: slice " + std::to_string(i) +
-                              " at z=" + mm(z[static_cast<size_t>(i)] - z[0], 3) +
+                              " at z=" + fixed(z[static_cast<size_t>(i)] - z[0], 3) +
                               " mm after slice " + std::to_string(i - 1) +
-                              " at z=" + mm(z[static_cast<size_t>(i) - 1] - z[0], 3) + " mm");
+                              " at z=" + fixed(z[static_cast<size_t>(i) - 1] - z[0], 3) + " mm");
   }
 
   const double median = g.slice_spacing();
@@ -271,21 +268,21 @@ Result<std::unique_ptr<SliceSource>> detail::make_uniform_z(std::unique_ptr<Slic
     for (size_t k = 0; k < gaps.size() && k < kMaxListed; ++k) {
       // A gap that prints like the median at the usual precision gets more digits.
       const double width = gaps[k].z1 - gaps[k].z0;
-      const int wdec = mm(width, dec) == mm(median, dec) ? 3 : dec;
-      list += (k ? ", " : "") + std::string("z=") + mm(gaps[k].z0, dec) + ".." +
-              mm(gaps[k].z1, dec) + " mm (" + mm(width, wdec) + " mm)";
+      const int wdec = fixed(width, dec) == fixed(median, dec) ? 3 : dec;
+      list += (k ? ", " : "") + std::string("z=") + fixed(gaps[k].z0, dec) + ".." +
+              fixed(gaps[k].z1, dec) + " mm (" + fixed(width, wdec) + " mm)";
     }
     if (gaps.size() > kMaxListed)
       list += " and " + std::to_string(gaps.size() - kMaxListed) + " more";
     if (gaps.empty())
-      return Error(where, "uneven slice spacing: positions drift up to " + mm(worst_jitter, 3) +
-                              " mm from an even " + mm(extent / (n - 1), dec) + " mm grid");
+      return Error(where, "uneven slice spacing: positions drift up to " + fixed(worst_jitter, 3) +
+                              " mm from an even " + fixed(extent / (n - 1), dec) + " mm grid");
     // One gap reads "gaps at z=a..b mm (d mm, median m mm)"; several end with "; median m mm".
     if (gaps.size() == 1) {
       list.pop_back();
-      list += ", median " + mm(median, dec) + " mm)";
+      list += ", median " + fixed(median, dec) + " mm)";
     } else {
-      list += "; median " + mm(median, dec) + " mm";
+      list += "; median " + fixed(median, dec) + " mm";
     }
     return Error(where, "uneven slice spacing: gaps at " + list);
   }
@@ -297,8 +294,8 @@ Result<std::unique_ptr<SliceSource>> detail::make_uniform_z(std::unique_ptr<Slic
     if (gap.missing == 0) continue;
     if (++missing_gaps <= kMaxNotes) {
       notes.push_back("resampled along z: " + std::to_string(gap.missing) + " missing slice" +
-                      (gap.missing == 1 ? "" : "s") + " between z=" + mm(gap.z0, dec) +
-                      " and z=" + mm(gap.z1, dec) + " mm");
+                      (gap.missing == 1 ? "" : "s") + " between z=" + fixed(gap.z0, dec) +
+                      " and z=" + fixed(gap.z1, dec) + " mm");
     }
   }
   if (missing_gaps > kMaxNotes)
@@ -309,8 +306,8 @@ Result<std::unique_ptr<SliceSource>> detail::make_uniform_z(std::unique_ptr<Slic
                     (gaps.empty() ? std::string("positions drift")
                                   : std::to_string(jitter_count) + " uneven gap" +
                                         (jitter_count == 1 ? "" : "s")) +
-                    " (up to " + mm(worst_jitter, 3) + " mm off the median " + mm(median, dec) +
-                    " mm) interpolated onto an even grid");
+                    " (up to " + fixed(worst_jitter, 3) + " mm off the median " +
+                    fixed(median, dec) + " mm) interpolated onto an even grid");
   }
   // Output slices cover the source extent; a grid point within 1% of a spacing past the last
   // slice is kept (it reads the last slice).
@@ -318,9 +315,9 @@ Result<std::unique_ptr<SliceSource>> detail::make_uniform_z(std::unique_ptr<Slic
   // A few far-off positions in a dense series would ask for an absurd grid: refuse rather than
   // allocate it.
   if (grid > 10.0 * n + 1000.0)
-    return Error(where, "slice positions span " + mm(extent, dec) + " mm at a median spacing of " +
-                            mm(median, 3) + " mm; resampling " + std::to_string(n) +
-                            " slices would need " + mm(grid, 0) +
+    return Error(where, "slice positions span " + fixed(extent, dec) +
+                            " mm at a median spacing of " + fixed(median, 3) + " mm; resampling " +
+                            std::to_string(n) + " slices would need " + fixed(grid, 0) +
                             " output slices (positions corrupt?)");
   const int count = static_cast<int>(grid);
 
@@ -348,13 +345,13 @@ std::string resampling_summary(const VolumeGeometry& g) {
   const int dec = decimals_for(spacing);
   std::string s = "resampled along z: " + std::to_string(r.source_slices) +
                   " slices in the files, " + std::to_string(g.slice_count()) + " out at " +
-                  mm(spacing, dec) + " mm; ";
+                  fixed(spacing, dec) + " mm; ";
   if (r.invented_slices == 0) return s + "uneven spacing interpolated, no slice invented";
   return s + std::to_string(r.invented_slices) + " invented (" +
-         mm(100.0 * r.invented_slices / std::max(1, g.slice_count()), 1) + " %) in " +
+         fixed(100.0 * r.invented_slices / std::max(1, g.slice_count()), 1) + " %) in " +
          std::to_string(r.gaps) + " gap" + (r.gaps == 1 ? "" : "s") + ", widest " +
-         mm(r.widest_gap_mm, dec) + " mm at z=" + mm(r.widest_gap_z0, dec) + ".." +
-         mm(r.widest_gap_z0 + r.widest_gap_mm, dec) + " mm";
+         fixed(r.widest_gap_mm, dec) + " mm at z=" + fixed(r.widest_gap_z0, dec) + ".." +
+         fixed(r.widest_gap_z0 + r.widest_gap_mm, dec) + " mm";
 }
 
 }  // namespace sawyer::ct

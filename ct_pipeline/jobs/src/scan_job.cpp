@@ -5,7 +5,7 @@
 #include <string>
 #include <utility>
 
-#include "sawyer/ct/scanner_frame.h"
+#include "sawyer/ct/io/scanner_frame.h"
 #include "sawyer/maps/float_maps.h"
 #include "sawyer/maps/published_maps.h"
 #include "sawyer/model/log_json.h"

@@ -21,7 +21,7 @@
 //                      wood by tens of HU only) along the axis extrapolated from the inner
 //                      shells, to where the knot ends;
 //   7. merge_pieces()  joins traces that are pieces of one knot.
-#include "sawyer/ct/knot_detect.h"
+#include "sawyer/ct/knots/knot_detect.h"
 
 #include <algorithm>
 #include <array>

@@ -1,6 +1,6 @@
 // The knot-formula fit (issue 5): axis by a weighted linear least squares start refined with a
 // robust, bounded Ceres solve; diameter profile with r_dead profiled over a grid of candidates.
-#include "sawyer/ct/knot_fit.h"
+#include "sawyer/ct/knots/knot_fit.h"
 
 #include <ceres/ceres.h>
 

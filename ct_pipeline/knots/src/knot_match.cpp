@@ -1,5 +1,5 @@
 // Found knots against true knots (see knot_match.h).
-#include "sawyer/ct/knot_match.h"
+#include "sawyer/ct/knots/knot_match.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // The knot pass's voxel store (see log_volume.h).
-#include "sawyer/ct/log_volume.h"
+#include "sawyer/ct/knots/log_volume.h"
 
 #include <algorithm>
 #include <cmath>

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/phantom.h"
+#include "sawyer/ct/phantom/phantom.h"
 
 namespace sawyer::ct {
 

@@ -1,5 +1,5 @@
 // PhantomSource (see phantom_source.h).
-#include "sawyer/ct/phantom_source.h"
+#include "sawyer/ct/phantom/phantom_source.h"
 
 namespace sawyer::ct {
 

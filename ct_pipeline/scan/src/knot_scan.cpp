@@ -1,5 +1,5 @@
 // The knot pass: detect, fit in parallel, number (see knot_scan.h).
-#include "sawyer/ct/knot_scan.h"
+#include "sawyer/ct/scan/knot_scan.h"
 
 #include <algorithm>
 #include <atomic>

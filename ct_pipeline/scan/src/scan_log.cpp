@@ -1,5 +1,5 @@
 // The scan of a log as one call (see scan_log.h).
-#include "sawyer/ct/scan_log.h"
+#include "sawyer/ct/scan/scan_log.h"
 
 #include <chrono>
 #include <cstdio>

@@ -1,5 +1,5 @@
 // The scan's verdict on itself (see scan_qa.h).
-#include "sawyer/ct/scan_qa.h"
+#include "sawyer/ct/scan/scan_qa.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/pith_track.h"
+#include "sawyer/ct/stem/pith_track.h"
 
 namespace sawyer::ct {
 

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "sawyer/core/file_util.h"
-#include "sawyer/ct/scan_log.h"
+#include "sawyer/ct/scan/scan_log.h"
 
 namespace sawyer::ct {
 

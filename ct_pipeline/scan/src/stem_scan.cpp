@@ -1,6 +1,6 @@
 // The stem pass: read every slice once, track the pith, measure contour and heartwood on worker
 // threads, smooth the pith along z, re-centre, assemble the Stem.
-#include "sawyer/ct/stem_scan.h"
+#include "sawyer/ct/scan/stem_scan.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,7 +12,7 @@
 #include <thread>
 
 #include "sawyer/core/stats.h"
-#include "sawyer/ct/pith_whorl.h"
+#include "sawyer/ct/stem/pith_whorl.h"
 
 namespace sawyer::ct {
 

@@ -37,7 +37,7 @@
 #include <vector>
 
 #include "sawyer/core/stats.h"
-#include "sawyer/ct/stem_detect.h"
+#include "sawyer/ct/stem/stem_detect.h"
 
 namespace sawyer::ct {
 namespace {

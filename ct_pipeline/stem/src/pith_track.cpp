@@ -1,5 +1,5 @@
 // Pith tracking along z and its robust smoothing (see pith_track.h).
-#include "sawyer/ct/pith_track.h"
+#include "sawyer/ct/stem/pith_track.h"
 
 #include <algorithm>
 #include <atomic>

@@ -1,5 +1,5 @@
 // The pith where a whorl's knot streaks meet (see pith_whorl.h).
-#include "sawyer/ct/pith_whorl.h"
+#include "sawyer/ct/stem/pith_whorl.h"
 
 #include <algorithm>
 #include <cmath>

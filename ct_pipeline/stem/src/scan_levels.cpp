@@ -1,5 +1,5 @@
 // The CT levels of a log scan from its own histogram (see scan_levels.h).
-#include "sawyer/ct/scan_levels.h"
+#include "sawyer/ct/stem/scan_levels.h"
 
 #include <algorithm>
 #include <cmath>

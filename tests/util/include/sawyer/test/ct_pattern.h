@@ -10,8 +10,8 @@
 #include <filesystem>
 #include <memory>
 
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 
 namespace sawyer::ct {
 

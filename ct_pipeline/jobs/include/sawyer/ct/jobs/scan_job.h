@@ -13,8 +13,8 @@
 #include <string>
 
 #include "sawyer/core/result.h"
-#include "sawyer/ct/scan_log.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/scan/scan_log.h"
 
 namespace sawyer::ct {
 

@@ -20,11 +20,11 @@
 #include <string>
 
 #include "sawyer/core/result.h"
-#include "sawyer/ct/knot_scan.h"
-#include "sawyer/ct/log_volume.h"
-#include "sawyer/ct/scan_qa.h"
-#include "sawyer/ct/slice_source.h"
-#include "sawyer/ct/stem_scan.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/knots/log_volume.h"
+#include "sawyer/ct/scan/knot_scan.h"
+#include "sawyer/ct/scan/scan_qa.h"
+#include "sawyer/ct/scan/stem_scan.h"
 #include "sawyer/model/log_model.h"
 
 namespace sawyer::ct {

@@ -39,8 +39,8 @@
 
 #include "sawyer/core/result.h"
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/slice_sink.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_sink.h"
+#include "sawyer/ct/io/slice_source.h"
 #include "sawyer/field/wood_field.h"
 #include "sawyer/model/log_model.h"
 

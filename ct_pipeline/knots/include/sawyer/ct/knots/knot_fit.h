@@ -16,7 +16,7 @@
 #pragma once
 
 #include "sawyer/core/result.h"
-#include "sawyer/ct/knot_detect.h"
+#include "sawyer/ct/knots/knot_detect.h"
 #include "sawyer/model/log_model.h"
 
 namespace sawyer::ct {

@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/slice_source.h"
-#include "sawyer/ct/stem_detect.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/stem/stem_detect.h"
 
 namespace sawyer::ct {
 

@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
 
 namespace sawyer::ct {
 

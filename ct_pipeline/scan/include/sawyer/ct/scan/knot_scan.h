@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "sawyer/core/result.h"
-#include "sawyer/ct/knot_detect.h"
-#include "sawyer/ct/knot_fit.h"
-#include "sawyer/ct/log_volume.h"
+#include "sawyer/ct/knots/knot_detect.h"
+#include "sawyer/ct/knots/knot_fit.h"
+#include "sawyer/ct/knots/log_volume.h"
 #include "sawyer/model/log_model.h"
 
 namespace sawyer::ct {

@@ -23,7 +23,7 @@
 #include <cmath>
 #include <vector>
 
-#include "sawyer/ct/log_volume.h"
+#include "sawyer/ct/knots/log_volume.h"
 #include "sawyer/model/log_model.h"
 
 namespace sawyer::ct {

@@ -22,8 +22,8 @@
 #include <vector>
 
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/pith_track.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/stem/pith_track.h"
 
 namespace sawyer::ct {
 

@@ -14,7 +14,7 @@
 
 #include "sawyer/core/result.h"
 #include "sawyer/core/vec.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
 #include "sawyer/model/log_model.h"
 
 namespace sawyer::ct {

@@ -19,9 +19,9 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/knot_scan.h"
-#include "sawyer/ct/slice_source.h"
-#include "sawyer/ct/stem_scan.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/scan/knot_scan.h"
+#include "sawyer/ct/scan/stem_scan.h"
 #include "sawyer/model/log_model.h"
 
 namespace sawyer::ct {

@@ -17,7 +17,7 @@
 #include <string>
 
 #include "sawyer/core/result.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
 
 namespace sawyer::ct {
 

@@ -24,12 +24,12 @@
 #include <vector>
 
 #include "sawyer/core/result.h"
-#include "sawyer/ct/log_volume.h"
-#include "sawyer/ct/pith_track.h"
-#include "sawyer/ct/pith_whorl.h"
-#include "sawyer/ct/scan_levels.h"
-#include "sawyer/ct/slice_source.h"
-#include "sawyer/ct/stem_detect.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/knots/log_volume.h"
+#include "sawyer/ct/stem/pith_track.h"
+#include "sawyer/ct/stem/pith_whorl.h"
+#include "sawyer/ct/stem/scan_levels.h"
+#include "sawyer/ct/stem/stem_detect.h"
 #include "sawyer/model/log_model.h"
 
 namespace sawyer::ct {

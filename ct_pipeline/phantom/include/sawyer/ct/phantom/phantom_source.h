@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "sawyer/ct/phantom.h"
-#include "sawyer/ct/slice_source.h"
+#include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/phantom/phantom.h"
 
 namespace sawyer::ct {
 
