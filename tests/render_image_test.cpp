@@ -1,7 +1,7 @@
 // Images from the renderer: a board face written through OpenImageIO and read back has the size
 // asked for and real content (knots darker than clear wood where the model puts a knot on the
-// face, heartwood darker than sapwood); `sawyer render` writes images and rejects bad input with
-// one line and no output file.
+// face, heartwood darker than sapwood); the render job checks and draws as the views do; `sawyer
+// render` writes images and rejects bad input with one line and no output file.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +12,7 @@
 #include "sawyer/model/log_generator.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/render/gl_context.h"
+#include "sawyer/render/render_job.h"
 #include "sawyer/render/views.h"
 #include "sawyer/render/wood_renderer.h"
 #include "sawyer/test/render_context.h"
@@ -102,6 +103,58 @@ TEST(RenderImage, FailedWriteLeavesNothing) {
   Result<Image> back = read_image(dir / "ok.png");
   ASSERT_TRUE(back.ok()) << back.error().message();
   EXPECT_EQ(back.value().u8, img.u8);
+}
+
+// `sawyer render`'s job (render_job.h): its checks name the job's fields, and what it draws is
+// what the view functions draw for the same request on a context of one's own.
+TEST(RenderJob, ChecksNameTheFieldsAndTheJobDrawsWhatTheViewDraws) {
+  const LogModel& log = test::sample_model("gran1_spruce");
+  RenderJob two;
+  two.section_z = 1500;
+  two.longitudinal_deg = 20;
+  const Status modes = check_render_job(two);
+  ASSERT_FALSE(modes.ok());
+  EXPECT_NE(modes.error().message().find("RenderJob: give exactly one of RenderJob::boards"),
+            std::string::npos)
+      << modes.error().message();
+  RenderJob far;
+  far.section_z = log.stem.z_end() + 100;
+  ASSERT_TRUE(check_render_job(far).ok());
+  const Status outside = check_render_job(far, log);
+  ASSERT_FALSE(outside.ok());
+  EXPECT_NE(outside.error().message().find("RenderJob::section_z: z = "), std::string::npos)
+      << outside.error().message();
+  RenderJob noisy;
+  noisy.section_z = 1500;
+  noisy.renderer.field.knot_noise = 0.9;
+  EXPECT_FALSE(check_render_job(noisy).ok());
+
+  RenderJob job;
+  job.section_z = 1500;
+  job.size = {160, 0};
+  ASSERT_TRUE(check_render_job(job).ok());
+  ASSERT_TRUE(check_render_job(job, log).ok());
+  Image direct;
+  {
+    test::ensure_headless_context();
+    auto r = WoodRenderer::create(log, job.renderer);
+    ASSERT_TRUE(r.ok()) << r.error().message();
+    Result<Image> img = render_cross_section(*r.value(), 1500, job.size, job.shade, job.layout);
+    ASSERT_TRUE(img.ok()) << img.error().message();
+    direct = img.value();
+  }
+  Result<RenderedImage> out = run_render_job(log, job);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_EQ(out.value().what, "cross-section z = 1500 mm");
+  EXPECT_FALSE(out.value().context.empty());
+  const Image& im = out.value().image;
+  ASSERT_EQ(im.width, direct.width);
+  ASSERT_EQ(im.height, direct.height);
+  ASSERT_EQ(im.u8.size(), direct.u8.size());
+  int far_off = 0;
+  for (size_t i = 0; i < im.u8.size(); ++i)
+    if (std::abs(int(im.u8[i]) - int(direct.u8[i])) > 2) ++far_off;
+  EXPECT_EQ(far_off, 0);
 }
 
 TEST(RenderImage, HeartwoodIsDarkerThanSapwood) {

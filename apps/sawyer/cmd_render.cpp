@@ -1,5 +1,6 @@
-// `sawyer render`: parses the options, loads the log, renders headless (EGL), writes the image
-// atomically (nothing is left under the output name on failure).
+// `sawyer render`: parses the options into a render job (libs/render/render_job.h), loads the
+// log, renders it headless (EGL) and writes the image atomically (nothing is left under the
+// output name on failure).
 #include "cmd_render.h"
 #include "cli_error.h"
 
@@ -16,9 +17,7 @@
 #include "sawyer/core/output_guard.h"
 #include "sawyer/maps/open_log.h"
 #include "sawyer/model/log_json.h"
-#include "sawyer/render/gl_context.h"
-#include "sawyer/render/views.h"
-#include "sawyer/render/wood_renderer.h"
+#include "sawyer/render/render_job.h"
 
 namespace sawyer::app {
 namespace {
@@ -89,160 +88,70 @@ Result<unsigned> parse_faces(const std::string& s) {
   return mask;
 }
 
-// A length for messages: "1500", "232.5".
-std::string mm(double v) {
-  std::ostringstream os;
-  os << std::round(v * 10.0) / 10.0;
-  return os.str();
-}
-
-std::string face_list(unsigned mask) {
-  std::string s;
-  for (unsigned bit = 1; bit <= 32; bit <<= 1)
-    if (mask & bit) s += std::string(s.empty() ? "" : ",") + face_name(static_cast<Face>(bit));
-  return s;
-}
-
 int run(const RenderCli& c) {
   // Everything that can be checked before the (slower) context and load comes first.
   if (!is_image_extension(c.output))
     return fail(Error(c.output, "unknown image type (use .png, .tif, .exr or .jpg)"));
   if (c.field && fs::path(c.output).extension() != ".exr")
     return fail(Error(c.output, "--field writes float values: use an .exr output"));
-  const int modes = (c.view ? 1 : 0) + (!c.view && !c.boards.empty() ? 1 : 0) +
-                    (!c.view && c.section_z ? 1 : 0) + (!c.view && c.longitudinal_deg ? 1 : 0);
-  if (modes != 1)
-    return fail(Error("sawyer render",
-                      "give exactly one of --board, --section, --longitudinal, "
-                      "or --view (which may add boards and sections)"));
-  if (!c.view && c.boards.size() > 1)
-    return fail(Error("--board", "several boards need --view; render one board's faces at a time"));
+  RenderJob job;
+  for (const std::string& b : c.boards) {
+    Result<BoardBox> board = BoardBox::from_string(b);
+    if (!board) return fail(board.error());
+    job.boards.push_back(board.value());
+  }
+  job.boards_in_scanner_frame = c.scanner_frame;
+  job.section_z = c.section_z;
+  job.longitudinal_deg = c.longitudinal_deg;
+  job.offset_mm = c.offset_mm;
+  job.view = c.view;
+  job.yaw_deg = c.yaw_deg;
+  job.pitch_deg = c.pitch_deg;
+  job.distance_mm = c.distance_mm;
+  job.look_at_z = c.look_at_z;
+  job.surface = !c.no_surface;
+  job.shade.mode = c.field ? ShadeMode::kTimeField : ShadeMode::kWood;
+  job.shade.lighting = !c.no_lighting;
+  job.layout.stretch = c.stretch;
+  job.layout.supersample = c.supersample;
+  job.renderer.color_maps = c.color_maps;
+  job.renderer.knot_index = !c.no_index;
+  job.renderer.field.knot_noise = c.knot_noise;
+  if (Status st = check_render_job(job); !st) return fail(st.error());
   Result<ImageSize> size = parse_size(c.size);
   if (!size) return fail(size.error());
+  job.size = size.value();
   Result<OutputLock> lock =
       OutputLock::acquire({c.output, OutputKind::kFile, {c.input, c.color_maps}, "-o"});
   if (!lock) return fail(lock.error());
   // The memory budget as far as the size is known before the content (a missing height follows
   // the content's aspect ratio; the renderer checks the whole size again).
-  if (Status st = check_image_size(size.value().width, std::max(1, size.value().height),
+  if (Status st = check_image_size(job.size.width, std::max(1, job.size.height),
                                    c.field ? 1 : c.supersample, c.field);
       !st)
     return fail(st.error());
   Result<unsigned> faces = parse_faces(c.faces);
   if (!faces) return fail(faces.error());
-  std::vector<BoardBox> boards;
-  for (const std::string& b : c.boards) {
-    Result<BoardBox> board = BoardBox::from_string(b);
-    if (!board) return fail(board.error());
-    boards.push_back(board.value());
-  }
-  if (!(c.knot_noise >= 0 && c.knot_noise <= 0.5))
-    return fail(Error("--knot-noise", "must be in [0, 0.5]"));
-  // Angles a turn either way; lengths within the log model's own limits (log_json.h).
-  const double reach = log_limits::kMaxAbsPithMm + log_limits::kMaxRadiusMm;
-  struct Bound {
-    const char* option;
-    std::optional<double> v;
-    double lo, hi;
-  };
-  for (const Bound& b :
-       {Bound{"--longitudinal", c.longitudinal_deg, -360, 360},
-        Bound{"--offset", c.offset_mm, -reach, reach}, Bound{"--yaw", c.yaw_deg, -360, 360},
-        Bound{"--pitch", c.pitch_deg, -90, 90}, Bound{"--distance", c.distance_mm, 0, 1e6},
-        Bound{"--section", c.section_z, -log_limits::kMaxAbsZMm, log_limits::kMaxAbsZMm},
-        Bound{"--look-at", c.look_at_z, -log_limits::kMaxAbsZMm, log_limits::kMaxAbsZMm}})
-    if (b.v && !(*b.v >= b.lo && *b.v <= b.hi))
-      return fail(Error(b.option, mm(*b.v) + " is outside " + mm(b.lo) + " to " + mm(b.hi)));
+  job.faces = faces.value();
 
   std::error_code ec;
   if (!fs::exists(c.input, ec)) return fail(Error(c.input, "no such file or folder"));
   Result<LogModel> log = maps::open_log(c.input);
   if (!log) return fail(log.error());
   const LogModel& model = log.value();
-  if (c.section_z && (*c.section_z < model.stem.z_begin() || *c.section_z > model.stem.z_end()))
-    return fail(Error("--section", "z = " + mm(*c.section_z) + " mm is outside the log (" +
-                                       mm(model.stem.z_begin()) + " to " + mm(model.stem.z_end()) +
-                                       " mm)"));
-
-  // A board that misses the log would render as an empty image: refuse it instead.
-  for (const BoardBox& b : boards)
-    if (b.z1 <= model.stem.z_begin() || b.z0 >= model.stem.z_end())
-      return fail(Error(
-          "--board", "z " + mm(b.z0) + " to " + mm(b.z1) + " mm misses the log, which runs from " +
-                         mm(model.stem.z_begin()) + " to " + mm(model.stem.z_end()) + " mm"));
+  if (Status st = check_render_job(job, model); !st) return fail(st.error());
 
   const auto t0 = std::chrono::steady_clock::now();
-  Result<std::unique_ptr<GlContext>> ctx = create_headless_context();
-  if (!ctx) return fail(ctx.error());
-  RenderOptions ro;
-  ro.color_maps = c.color_maps;
-  ro.knot_index = !c.no_index;
-  ro.field.knot_noise = c.knot_noise;
-  Result<std::unique_ptr<WoodRenderer>> r = WoodRenderer::create(model, ro);
-  if (!r) return fail(r.error());  // names the colour strip or shader file
-  WoodRenderer& renderer = *r.value();
-  // Board centres are given from the log's mean pith line unless --scanner-frame says otherwise.
-  if (!c.scanner_frame) {
-    const Vec3 centre = renderer.pith_point(0.0);
-    for (BoardBox& b : boards) {
-      b.cx += centre.x;
-      b.cy += centre.y;
-    }
-  }
-
-  ShadeOptions shade;
-  shade.mode = c.field ? ShadeMode::kTimeField : ShadeMode::kWood;
-  shade.lighting = !c.no_lighting;
-  FaceLayout layout;
-  layout.stretch = c.stretch;
-  layout.supersample = c.supersample;
-  std::string what;
-  Result<Image> img = Error("nothing rendered");
-  if (c.view) {
-    Scene scene;
-    scene.boards = boards;
-    scene.log_surface = !c.no_surface;
-    if (c.section_z && !scene.log_surface) scene.cross_sections.push_back(*c.section_z);
-    if (c.longitudinal_deg)
-      scene.longitudinal_sections.push_back({*c.longitudinal_deg * kPi / 180.0, c.offset_mm});
-    if (scene.log_surface) {
-      // The boards are sawn out of the log: the surface stops where the first one starts, with
-      // a cross-section there; the log's ends are cross-sections too.
-      double cut = model.stem.z_end();
-      for (const BoardBox& b : boards) cut = std::min(cut, std::max(b.z0, model.stem.z_begin()));
-      if (c.section_z) cut = std::min(cut, *c.section_z);
-      scene.surface_z1 = cut;
-      scene.cross_sections.push_back(model.stem.z_begin() + 0.01);
-      scene.cross_sections.push_back(cut - 0.01);
-    }
-    const Stem& st = model.stem;
-    const double dist = c.distance_mm > 0 ? c.distance_mm : 1.25 * st.length_mm();
-    const double target_z = c.look_at_z ? *c.look_at_z : 0.5 * (st.z_begin() + st.z_end());
-    Camera cam = Camera::orbit(renderer.pith_point(target_z), dist, c.yaw_deg * kPi / 180.0,
-                               c.pitch_deg * kPi / 180.0);
-    cam.near_mm = std::max(1.0, 0.02 * dist);
-    cam.far_mm = 4.0 * dist + st.length_mm();
-    img = render_view(renderer, scene, cam, size.value(), shade, layout);
-    what = "3D view";
-  } else if (!boards.empty()) {
-    img = render_board_faces(renderer, boards[0], faces.value(), size.value(), shade, layout);
-    what = "board faces " + face_list(faces.value());
-  } else if (c.section_z) {
-    img = render_cross_section(renderer, *c.section_z, size.value(), shade, layout);
-    what = "cross-section z = " + mm(*c.section_z) + " mm";
-  } else {
-    img = render_longitudinal_section(renderer, {*c.longitudinal_deg * kPi / 180.0, c.offset_mm},
-                                      size.value(), shade, layout);
-    what = "longitudinal section";
-  }
+  Result<RenderedImage> img = run_render_job(model, job);
   if (!img) return fail(img.error());
-  Status st = write_image(c.output, img.value());
+  Status st = write_image(c.output, img.value().image);
   if (!st) return fail(st.error());
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!c.quiet)
-    std::cout << "wrote " << c.output << " (" << img.value().width << " x " << img.value().height
-              << ", " << what << ", " << model.knots.size() << " knots, "
-              << static_cast<int>(s * 1000) << " ms; " << ctx.value()->description() << ")\n";
+    std::cout << "wrote " << c.output << " (" << img.value().image.width << " x "
+              << img.value().image.height << ", " << img.value().what << ", " << model.knots.size()
+              << " knots, " << static_cast<int>(s * 1000) << " ms; " << img.value().context
+              << ")\n";
   return 0;
 }
 

@@ -1,6 +1,7 @@
-// The viewer's own OpenGL pieces on top of sawyer::render: textures to render into (the 3D view's
-// opaque and translucent layers, the section and face panels, all shown through Dear ImGui), the
-// plain-mesh painter for knot tubes and outlines, and reading the window back for screenshots.
+// OpenGL pieces for an interactive view on top of the wood renderer (sawyer-view uses them):
+// textures to render into (the 3D view's opaque and translucent layers, the section and face
+// panels, shown through Dear ImGui), the plain-mesh painter for knot tubes and outlines
+// (mesh.h), and reading the window back for screenshots.
 // Everything needs the window's context current; destroy while it is current.
 //
 //   GlTarget opaque, overlay;
