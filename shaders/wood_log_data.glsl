@@ -10,6 +10,7 @@
 //   knots[]     per knot: diameter profile, r_dead, r_end, noise seed, where its track starts;
 //   tracks[]    per knot: the axis (x, y, z, unwrapped azimuth) every u_track_step mm of pith
 //               distance from 0 to the end of its influence;
+//   bark[]      bark thickness (mm) at the model's stem samples, when it is drawn and known;
 //   cell_start[], cell_knots[]   the knot index: for each cell of (height, pith distance,
 //               azimuth) the knots whose range of influence can reach it. Without WOOD_INDEX a
 //               fragment visits every knot (the straightforward port of the published loop).
@@ -36,6 +37,7 @@ layout(std430, binding = 1) readonly buffer WoodTracks { vec4 tracks[]; };
 layout(std430, binding = 2) readonly buffer WoodKnots { WoodKnot knots[]; };
 layout(std430, binding = 3) readonly buffer WoodCellStart { int cell_start[]; };
 layout(std430, binding = 4) readonly buffer WoodCellKnots { int cell_knots[]; };
+layout(std430, binding = 5) readonly buffer WoodBark { float bark[]; };
 
 layout(binding = 0) uniform sampler2D u_stem;
 
@@ -55,6 +57,9 @@ uniform int u_cell_nz;
 uniform float u_cell_dr;
 uniform int u_cell_nr;
 uniform int u_cell_ns;
+uniform int u_bark_count;      // bark samples every u_bark_step mm from u_stem_z0 (0: none)
+uniform float u_bark_step;
+uniform float u_bark_default;  // bark thickness (mm) where the model has none (0: no bark)
 
 const float WOOD_TWO_PI = 6.28318530718;
 const float WOOD_FAR = 1e30;
@@ -69,12 +74,16 @@ struct WoodSample {
   float omega;     // azimuth, rad
   float radius;    // outer radius R(omega, z), mm
   float heartwood; // heartwood radius, mm (0: none)
+  float bark;      // bark thickness outside R, mm (0: none or not drawn)
   vec2 radial;     // unit horizontal direction from the pith
   int knot;        // knot whose wood this is, -1 outside knots
   bool dead;       // in the dead part of that knot
   float knot_depth;
+  float knot_rate;   // that knot's time per mm across its axis (t_c / rho), for filtering
   float near_depth;  // nearest knot (r <= r_end): distance from its axis / its radius
+  float near_rho;    // that knot's radius here, mm
   float dead_depth;  // nearest dead knot: distance from its axis / its radius (WOOD_FAR: none)
+  float dead_rho;    // that knot's radius, mm
   float dead_beta;   // angle around that knot's axis
   uint dead_seed;
 };
@@ -83,6 +92,16 @@ vec2 wood_pith_at(float z) {
   float u = clamp((z - u_pith_z0) / u_pith_step, 0.0, float(u_pith_count - 1));
   int i = min(int(u), u_pith_count - 2);
   return mix(pith[i], pith[i + 1], u - float(i));
+}
+
+// Bark thickness at height z (mm): the model's per-sample values (linear between; 0 when the
+// model has none and the look gives no default, or bark is not drawn).
+float wood_bark_at(float z) {
+  if (u_bark_count < 1) return u_bark_default;
+  float u = clamp((z - u_stem_z0) / u_bark_step, 0.0, float(u_bark_count - 1));
+  int i = min(int(u), max(u_bark_count - 2, 0));
+  if (u_bark_count == 1) return bark[0];
+  return mix(bark[i], bark[i + 1], u - float(i));
 }
 
 // Diameter at pith distance r (sawyer::Knot::diameter_at).
@@ -131,10 +150,15 @@ void wood_visit_knot(int i, vec3 p, float r, float t_s, float R, float reach, in
       s.knot = i;
       s.dead = dead;
       s.knot_depth = depth;
+      s.knot_rate = t_c / max(rho, 1e-3);
     }
-    s.near_depth = min(s.near_depth, depth);
+    if (depth < s.near_depth) {
+      s.near_depth = depth;
+      s.near_rho = rho;
+    }
     if (dead && depth < s.dead_depth) {
       s.dead_depth = depth;
+      s.dead_rho = rho;
       s.dead_beta = beta;
       s.dead_seed = k.seed;
     }
@@ -158,12 +182,16 @@ WoodSample wood_stem(vec3 p) {
   vec2 rh = texture(u_stem, tc).xy;
   s.radius = rh.x;
   s.heartwood = rh.y;
+  s.bark = wood_bark_at(p.z);
   s.t_stem = r / s.radius;
   s.knot = -1;
   s.dead = false;
   s.knot_depth = 0.0;
+  s.knot_rate = 0.0;
   s.near_depth = WOOD_FAR;
+  s.near_rho = 0.0;
   s.dead_depth = WOOD_FAR;
+  s.dead_rho = 0.0;
   s.dead_beta = 0.0;
   s.dead_seed = 0u;
   s.t_knot = WOOD_FAR;

@@ -24,6 +24,7 @@ constexpr OptionName kFlags[] = {
     {"BoardBox::from_string", "--board"},
     {"shard_spec", "--shard"},
     {"RenderJob::boards", "--board"},
+    {"RenderOptions::species", "--species"},
     {"RenderJob::section_z", "--section"},
     {"RenderJob::longitudinal_deg", "--longitudinal"},
     {"RenderJob::offset_mm", "--offset"},

@@ -26,14 +26,15 @@ namespace fs = std::filesystem;
 using namespace sawyer::render;
 
 struct RenderCli {
-  std::string input, output, size = "1200", faces = "long", color_maps;
+  std::string input, output, size = "1200", faces = "long", color_maps, species;
   std::vector<std::string> boards;
   std::optional<double> section_z, longitudinal_deg;
   double offset_mm = 0, yaw_deg = 20, pitch_deg = 17, distance_mm = 0, knot_noise = 0.05;
   int supersample = 2;
   std::optional<double> look_at_z;
   bool view = false, stretch = false, no_surface = false, no_index = false, field = false,
-       no_lighting = false, quiet = false, scanner_frame = false;
+       no_lighting = false, quiet = false, scanner_frame = false, bark = false,
+       supersample_all = false;
 };
 
 Result<ImageSize> parse_size(const std::string& s) {
@@ -114,6 +115,9 @@ int run(const RenderCli& c) {
   job.shade.lighting = !c.no_lighting;
   job.layout.stretch = c.stretch;
   job.layout.supersample = c.supersample;
+  job.layout.adaptive = !c.supersample_all;
+  job.shade.bark = c.bark;
+  job.renderer.species = c.species;
   job.renderer.color_maps = c.color_maps;
   job.renderer.knot_index = !c.no_index;
   job.renderer.field.knot_noise = c.knot_noise;
@@ -126,8 +130,9 @@ int run(const RenderCli& c) {
   if (!lock) return fail(lock.error());
   // The memory budget as far as the size is known before the content (a missing height follows
   // the content's aspect ratio; the renderer checks the whole size again).
+  const bool whole_framebuffer = c.view || c.supersample_all;  // else samples in the shader
   if (Status st = check_image_size(job.size.width, std::max(1, job.size.height),
-                                   c.field ? 1 : c.supersample, c.field);
+                                   c.field || !whole_framebuffer ? 1 : c.supersample, c.field);
       !st)
     return fail(st.error());
   Result<unsigned> faces = parse_faces(c.faces);
@@ -197,9 +202,19 @@ void add_render_command(CLI::App& app, std::function<int()>& run_out) {
       ->capture_default_str();
   cmd->add_flag("--stretch", c->stretch, "fill the image even if that stretches the faces");
   cmd->add_option("--supersample", c->supersample,
-                  "n x n samples per pixel against ring aliasing (1..4; 1 is fastest)")
+                  "n x n samples per pixel against aliasing, taken only where the wood changes "
+                  "within a pixel (knot edges, bark rings, crowded rings) on faces and sections "
+                  "(1..4; 1 is fastest)")
       ->check(CLI::Range(1, 4))
       ->capture_default_str();
+  cmd->add_flag("--supersample-all", c->supersample_all,
+                "take the n x n samples in every pixel (slower; the reference for the above)");
+  cmd->add_flag("--bark", c->bark,
+                "draw the bark outside the wood (the model's bark thickness, else the species' "
+                "default): on wane, sections and the 3D view's surface");
+  cmd->add_option("--species", c->species,
+                  "the look: spruce or pine (knot, heartwood and bark colours; default: the "
+                  "log's species)");
   cmd->add_option("--color-maps", c->color_maps,
                   "folder with wood_bar_color.bmp, wood_bar_normal.bmp, wood_bar_specular.bmp "
                   "(default: the bundled sample_logs/wood_color_maps)");

@@ -154,21 +154,39 @@ int bench(view::Viewer& v, render::GlfwWindow& win, int frames, const std::strin
     parts.ui_draw += ui_draw;
     parts.swap += now_ms() - t0;
   }
+  // Frames with the camera turning: each request carries the last frame's time, as the
+  // interactive loop's does (the progressive view sizes itself by it).
   auto frame_loop = [&](bool force) {
     view::FrameRequest plain = request_for(vp);
     plain.force_redraw = force;
     const double t0 = now_ms();
+    double last = 0;
     for (int i = 0; i < frames; ++i) {
+      const double f0 = now_ms();
       win.poll_events();
       v.orbit().rotate(2.0, 0.0);
+      plain.last_frame_ms = last;
       run_frame(v, win, plain, nullptr);
       win.swap_buffers();
       render::finish_rendering();
+      last = now_ms() - f0;
     }
     return (now_ms() - t0) / frames;
   };
   const double typical = frame_loop(true);
   const double orbiting = frame_loop(false);  // panels unchanged: only the 3D view redrawn
+  const double moving_scale = v.motion_scale();
+  // The camera stops: the next frame draws the full-size view with the anti-aliased wood.
+  double still = 0;
+  {
+    view::FrameRequest plain = request_for(vp);
+    const double t0 = now_ms();
+    win.poll_events();
+    run_frame(v, win, plain, nullptr);
+    win.swap_buffers();
+    render::finish_rendering();
+    still = now_ms() - t0;
+  }
 
   const double n = frames;
   std::printf("sawyer-view --bench-frames %d: %s, window %d x %d\n", frames, log_path.c_str(),
@@ -190,6 +208,10 @@ int bench(view::Viewer& v, render::GlfwWindow& win, int frames, const std::strin
               1000.0 / typical);
   std::printf("  %-44s %9.1f %7.2f\n", "orbiting: 3D view only (panels unchanged)", orbiting,
               1000.0 / orbiting);
+  std::printf("  %-44s %9.1f %7.2f\n", "stopped: the full-size, anti-aliased 3D view", still,
+              1000.0 / still);
+  std::printf("  progressive 3D view while moving: %s, at %.0f %% of the view's side\n",
+              v.state().progressive ? "on" : "off", 100.0 * moving_scale);
   return 0;
 }
 
@@ -370,7 +392,11 @@ int main(int argc, char** argv) {
         // Interactive: draw when something happens (input, or twice a second for the UI).
         double last_ms = 0;
         while (!win.should_close() && !v.quit_requested()) {
-          glfwWaitEventsTimeout(0.5);
+          // Right after the camera stops, the full-size frame is drawn without waiting.
+          if (v.refine_pending())
+            glfwPollEvents();
+          else
+            glfwWaitEventsTimeout(0.5);
           const render::Viewport vp = win.framebuffer_viewport();
           if (vp.width <= 0 || vp.height <= 0) continue;  // minimised
           const double t0 = now_ms();

@@ -538,7 +538,7 @@ void Viewer::ui_controls(float x, float y, float w, float h) {
   if (ImGui::CollapsingHeader("Speed")) {
     ImGui::Checkbox("wood-shaded surface", &state_.wood_surface);
     ImGui::Checkbox("surface at half resolution", &state_.surface_half_res);
-    ImGui::Checkbox("half resolution while dragging", &state_.fast_drag);
+    ImGui::Checkbox("progressive: smaller while the camera moves", &state_.progressive);
   }
   if (ImGui::CollapsingHeader("Controls")) {
     ImGui::TextWrapped(
@@ -689,6 +689,23 @@ void Viewer::draw_3d(bool force, bool timing) {
   const render::Camera cam = orbit_.camera();
   const BoardBox& b = state_.board;
   const ViewState& s = state_;
+  // The progressive image: while the camera moves (it differs from the last frame's), the view
+  // is drawn smaller, at a scale that follows the frame time towards kMovingFrameMs, one sample
+  // per pixel, and scaled up into the window; the first frame after it stops is drawn at full
+  // size with the wood's 2 x 2 samples where it changes within a pixel (refine_pending() asks the
+  // loop for that frame at once).
+  const std::string camera_key =
+      key_of({orbit_.target.x, orbit_.target.y, orbit_.target.z, orbit_.distance, orbit_.yaw,
+              orbit_.pitch, orbit_.orthographic ? 1.0 : 0.0});
+  const bool moving = s.progressive && !camera_key_.empty() && camera_key != camera_key_;
+  camera_key_ = camera_key;
+  if (moving && last_frame_ms_ > 0 && was_moving_) {
+    // Frame time grows with the pixels: the side scales by the root of the time ratio, damped.
+    const double ratio = std::sqrt(kMovingFrameMs / last_frame_ms_);
+    motion_scale_ = std::clamp(motion_scale_ * std::clamp(ratio, 0.8, 1.15), 0.3, 1.0);
+  }
+  was_moving_ = moving;
+  refine_pending_ = moving;
   std::ostringstream k;
   k << key_of({static_cast<double>(view_w_),
                static_cast<double>(view_h_),
@@ -699,6 +716,7 @@ void Viewer::draw_3d(bool force, bool timing) {
                orbit_.yaw,
                orbit_.pitch,
                orbit_.orthographic ? 1.0 : 0.0,
+               moving ? motion_scale_ : 1.0,
                s.show_surface ? 1.0 : 0.0,
                s.cut_at_section ? 1.0 : 0.0,
                s.show_knots ? 1.0 : 0.0,
@@ -711,7 +729,7 @@ void Viewer::draw_3d(bool force, bool timing) {
                s.longitudinal_offset,
                s.wood_surface ? 1.0 : 0.0})
     << key_of({b.cx, b.cy, b.width, b.thickness, b.rotation, b.z0, b.z1});
-  const double drag_scale = dragging_ && s.fast_drag ? 0.5 : 1.0;
+  const double drag_scale = moving ? motion_scale_ : 1.0;
   const int w = std::max(1, static_cast<int>(view_w_ * drag_scale));
   const int h = std::max(1, static_cast<int>(view_h_ * drag_scale));
   const double surface_scale = s.surface_half_res ? 0.5 : 1.0;
@@ -747,7 +765,9 @@ void Viewer::draw_3d(bool force, bool timing) {
     solid.longitudinal_sections.push_back({s.longitudinal_deg * kDeg, s.longitudinal_offset});
   const render::Viewport vp = opaque_.viewport();
   opaque_.bind(kBackground, true);
-  renderer_->draw(solid, cam, vp);
+  render::ShadeOptions quality;
+  quality.supersample = moving ? 1 : 2;
+  renderer_->draw(solid, cam, vp, quality);
   if (s.show_knots) painter_.draw(knots_, cam, vp);
   if (s.show_board) painter_.draw(board_box_, cam, vp);
   if (s.show_pith) painter_.draw(pith_, cam, vp);

@@ -51,10 +51,11 @@ struct ViewState {
   bool show_longitudinal = false;  // the longitudinal section in the 3D view
   bool show_board = true;
   bool show_pith = false;
-  // Speed: the translucent surface at half resolution (it is smooth and faint), and the whole 3D
-  // view at half resolution while the mouse drags it.
+  // Speed: the translucent surface at half resolution (it is smooth and faint), and the 3D view
+  // progressive: smaller while the camera moves (sized to keep about 30 frames a second), at full
+  // size with anti-aliased wood once it stops.
   bool surface_half_res = true;
-  bool fast_drag = true;
+  bool progressive = true;
   // The surface shaded by the knotted-wood renderer (the rings and the knots where they reach
   // the surface) or a plain light mesh (much cheaper on a software renderer, where
   // Viewer::create makes it the default).
@@ -128,6 +129,11 @@ class Viewer {
   // first (for --screenshot). On failure the mode stays off and the error is returned.
   Status start_sawing(const SawingChoice& choice, const sawing::LogPosition& pos, bool optimise);
   bool sawing_mode() const { return sawing_mode_; }
+  // The last 3D view was drawn small while the camera moved: the loop should draw the next
+  // frame at once (the full-size image) instead of waiting for input.
+  bool refine_pending() const { return refine_pending_; }
+  // The 3D view's scale while the camera moves (1 = full size).
+  double motion_scale() const { return motion_scale_; }
 
  private:
   Viewer() = default;
@@ -168,6 +174,12 @@ class Viewer {
 
   // What each texture shows now (redrawn when it changes).
   std::string key_3d_, key_section_, key_long_, key_faces_, key_board_mesh_;
+  // The progressive 3D view (draw_3d): the camera of the last frame, whether that frame moved,
+  // the scale while moving, and the frame time it aims at.
+  static constexpr double kMovingFrameMs = 30.0;
+  std::string camera_key_;
+  bool was_moving_ = false, refine_pending_ = false;
+  double motion_scale_ = 0.6;
   FrameTimes times_;
 
   bool dragging_ = false, panning_ = false, quit_ = false;

@@ -17,9 +17,16 @@ int samples(const ShadeOptions& shade, const FaceLayout& layout) {
   return shade.mode == ShadeMode::kTimeField ? 1 : std::clamp(layout.supersample, 1, 4);
 }
 
+// Framebuffer pixels per image pixel side: 1 where the shader takes the samples itself.
+int framebuffer_scale(const ShadeOptions& shade, const FaceLayout& layout, bool planes) {
+  return planes && layout.adaptive ? 1 : samples(shade, layout);
+}
+
 // The size against the limits, for the shading and layout it is rendered with.
-Status check_size(int w, int h, const ShadeOptions& shade, const FaceLayout& layout) {
-  return check_image_size(w, h, samples(shade, layout), shade.mode == ShadeMode::kTimeField);
+Status check_size(int w, int h, const ShadeOptions& shade, const FaceLayout& layout,
+                  bool planes) {
+  return check_image_size(w, h, framebuffer_scale(shade, layout, planes),
+                          shade.mode == ShadeMode::kTimeField);
 }
 
 // Averages n x n blocks of an 8-bit image.
@@ -48,16 +55,18 @@ Image downsample(const Image& big, int n) {
 // Renders tiles (each a rectangle filling its viewport) into one image.
 Result<Image> render_tiles(WoodRenderer& r, const std::vector<Tile>& tiles, int w, int h,
                            const ShadeOptions& shade, const FaceLayout& layout) {
-  if (Status st = check_size(w, h, shade, layout); !st) return st.error();
+  if (Status st = check_size(w, h, shade, layout, true); !st) return st.error();
   const bool is_float = shade.mode == ShadeMode::kTimeField;
-  const int n = samples(shade, layout);
+  const int n = framebuffer_scale(shade, layout, true);
+  ShadeOptions sh = shade;
+  sh.supersample = n == 1 ? samples(shade, layout) : 1;
   Result<Framebuffer> fb = Framebuffer::create(
       w * n, h * n, is_float ? Framebuffer::Format::kRgba32f : Framebuffer::Format::kRgba8);
   if (!fb) return fb.error();
   fb.value().bind(layout.background);
   for (const Tile& t : tiles)
     if (t.vp.width > 0 && t.vp.height > 0)
-      r.draw_plane(t.rect, {t.vp.x * n, t.vp.y * n, t.vp.width * n, t.vp.height * n}, shade);
+      r.draw_plane(t.rect, {t.vp.x * n, t.vp.y * n, t.vp.width * n, t.vp.height * n}, sh);
   return downsample(fb.value().read(), n);
 }
 
@@ -118,7 +127,8 @@ Result<Image> render_board_faces(WoodRenderer& r, const BoardBox& board, unsigne
   } else {
     sx = sy = std::min(sx, std::max(1.0, static_cast<double>(size.height - gaps)) / sum_h);
   }
-  if (Status st = check_size(size.width, size.height, shade, layout); !st) return st.error();
+  if (Status st = check_size(size.width, size.height, shade, layout, true); !st)
+    return st.error();
   std::vector<Tile> tiles;
   double y = 0;  // from the top of the image
   for (const PlaneRect& p : rects) {
@@ -176,15 +186,18 @@ Result<Image> render_longitudinal_section(WoodRenderer& r, const LongitudinalSec
 Result<Image> render_view(WoodRenderer& r, const Scene& scene, const Camera& camera, ImageSize size,
                           const ShadeOptions& shade, const FaceLayout& layout) {
   if (size.height <= 0) size.height = std::max(1, size.width * 3 / 4);
-  if (Status st = check_size(size.width, size.height, shade, layout); !st) return st.error();
+  if (Status st = check_size(size.width, size.height, shade, layout, false); !st)
+    return st.error();
   const bool is_float = shade.mode == ShadeMode::kTimeField;
   const int n = samples(shade, layout);
+  ShadeOptions sh = shade;
+  sh.supersample = 1;
   Result<Framebuffer> fb =
       Framebuffer::create(size.width * n, size.height * n,
                           is_float ? Framebuffer::Format::kRgba32f : Framebuffer::Format::kRgba8);
   if (!fb) return fb.error();
   fb.value().bind(layout.background);
-  r.draw(scene, camera, fb.value().viewport(), shade);
+  r.draw(scene, camera, fb.value().viewport(), sh);
   return downsample(fb.value().read(), n);
 }
 

@@ -1,6 +1,7 @@
 #include "sawyer/render/wood_renderer.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <vector>
@@ -69,6 +70,34 @@ fs::path default_color_maps() {
   return SAWYER_RENDER_DATA_DIR;
 }
 
+// The number of annual rings in a colour strip (its dark latewood bands: local luminance minima
+// at least 12/255 below the brightest pixel within ±15 px) and its mean luminance, 0-1.
+struct StripStats {
+  float rings = 40;
+  float luma = 0.8f;
+};
+
+StripStats strip_stats(const Strip& s) {
+  std::vector<double> l(s.width);
+  double sum = 0;
+  for (int i = 0; i < s.width; ++i) {
+    const std::uint8_t* p = &s.rgba[4 * static_cast<size_t>(i)];
+    l[i] = (0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2]) / 255.0;
+    sum += l[i];
+  }
+  int minima = 0;
+  for (int i = 3; i + 3 < s.width; ++i) {
+    double lo = l[i], hi = l[i];
+    for (int j = i - 3; j <= i + 3; ++j) lo = std::min(lo, l[j]);
+    for (int j = std::max(0, i - 15); j < std::min(s.width, i + 15); ++j) hi = std::max(hi, l[j]);
+    if (l[i] == lo && hi - l[i] > 12.0 / 255.0 && (i == 3 || l[i - 1] != l[i])) ++minima;
+  }
+  StripStats st;
+  st.rings = static_cast<float>(std::max(minima, 10));
+  st.luma = static_cast<float>(sum / std::max(s.width, 1));
+  return st;
+}
+
 struct Vertex {
   float p[3];
   float n[3];
@@ -94,6 +123,41 @@ void push_rect(std::vector<Vertex>& v, const PlaneRect& r) {
 
 }  // namespace
 
+WoodLook wood_look(const std::string& species, bool* known) {
+  std::string sp;
+  for (char c : species) sp += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  WoodLook l;
+  if (known) *known = sp == "spruce" || sp == "pine";
+  if (sp == "pine") {
+    // Scots pine: reddish-brown heartwood (darker and redder than the sapwood once exposed),
+    // resinous red-brown knots, thick grey-brown plated bark with reddish inner bark.
+    l.name = "pine";
+    l.knot_sound = {0.66f, 0.40f, 0.24f};
+    l.knot_dead = {0.46f, 0.31f, 0.21f};
+    l.bark_ring = {0.15f, 0.10f, 0.07f};
+    l.heart_tint = {0.91f, 0.82f, 0.72f};
+    l.bark_inner = {0.58f, 0.38f, 0.27f};
+    l.bark_outer = {0.42f, 0.33f, 0.27f};
+    l.knot_rings = 2.5f;
+    l.heartwood_visible = true;
+    l.bark_default_mm = 10;
+    return l;
+  }
+  // Norway spruce: no heartwood colour; yellow- to reddish-brown sound knots a shade darker
+  // than clear wood, darker grey-brown dead knots, thin scaly reddish-grey bark.
+  l.name = "spruce";
+  l.knot_sound = {0.66f, 0.47f, 0.33f};
+  l.knot_dead = {0.49f, 0.38f, 0.29f};
+  l.bark_ring = {0.17f, 0.12f, 0.09f};
+  l.heart_tint = {1.0f, 1.0f, 1.0f};
+  l.bark_inner = {0.62f, 0.40f, 0.28f};
+  l.bark_outer = {0.46f, 0.35f, 0.29f};
+  l.knot_rings = 2.5f;
+  l.heartwood_visible = false;
+  l.bark_default_mm = 6;
+  return l;
+}
+
 Status RenderOptions::validate() const {
   if (!(field.knot_noise >= 0 && field.knot_noise <= 0.5))
     return Error("knot noise", "must be in [0, 0.5]");
@@ -103,6 +167,10 @@ Status RenderOptions::validate() const {
     return Error("index_dr_mm", "must be in [1, 1000]");
   if (index_sectors < 1 || index_sectors > 360)
     return Error("index_sectors", "must be in [1, 360]");
+  bool known = true;
+  if (!species.empty()) wood_look(species, &known);
+  if (!known)
+    return Error("RenderOptions::species", "'" + species + "' is not a known look: spruce or pine");
   return Status::Ok();
 }
 
@@ -112,13 +180,16 @@ struct WoodRenderer::Impl {
   std::unique_ptr<WoodField> field;
   GpuLogData data;
   ShaderProgram program;
-  GLuint ssbo[5] = {};
+  GLuint ssbo[6] = {};
+  WoodLook look;
+  StripStats strip;
+  std::vector<float> bark;  // bark thickness at the stem samples (empty: the model has none)
   GLuint stem_tex = 0, strip_tex[3] = {};
   GLuint vao = 0, vbo = 0, surface_vbo = 0;
   GLsizei surface_count = 0;
 
   ~Impl() {
-    glDeleteBuffers(5, ssbo);
+    glDeleteBuffers(6, ssbo);
     glDeleteTextures(1, &stem_tex);
     glDeleteTextures(3, strip_tex);
     glDeleteBuffers(1, &vbo);
@@ -133,12 +204,25 @@ struct WoodRenderer::Impl {
                  GL_STATIC_DRAW);
   }
 
-  void build_surface();
+  void build_surface(bool with_bark);
+  // Bark thickness at height z, as the shader reads it (wood_bark_at).
+  double bark_at(double z) const {
+    if (bark.empty()) return look.bark_default_mm;
+    const double u = std::clamp((z - data.stem_z0) / log->stem.dz_mm, 0.0,
+                                static_cast<double>(bark.size() - 1));
+    const size_t i = std::min(static_cast<size_t>(u), bark.size() > 1 ? bark.size() - 2 : 0);
+    if (bark.size() == 1) return bark[0];
+    return bark[i] + (bark[i + 1] - bark[i]) * (u - static_cast<double>(i));
+  }
+  bool surface_bark = false;
   void set_uniforms(const Camera& cam, const Viewport& vp, const ShadeOptions& s);
   void draw_vertices(const std::vector<Vertex>& v, float surface_tol);
 };
 
-void WoodRenderer::Impl::build_surface() {
+void WoodRenderer::Impl::build_surface(bool with_bark) {
+  surface_bark = with_bark;
+  glDeleteBuffers(1, &surface_vbo);
+  surface_vbo = 0;
   const Stem& st = log->stem;
   const int na = st.n_angles;
   std::vector<double> zs;
@@ -149,7 +233,7 @@ void WoodRenderer::Impl::build_surface() {
     const double z = zs[row];
     const Vec2 c = st.pith_at(z);
     const double w = kTwoPi * k / na;
-    const double R = st.radius_at(w, z);
+    const double R = st.radius_at(w, z) + (with_bark ? bark_at(z) : 0.0);
     return Vec3{c.x + R * std::cos(w), c.y + R * std::sin(w), z};
   };
   const int rows = static_cast<int>(zs.size());
@@ -230,8 +314,35 @@ void WoodRenderer::Impl::set_uniforms(const Camera& cam, const Viewport& vp,
   glUniform1i(loc("u_lighting"), s.lighting ? 1 : 0);
   glUniform1f(loc("u_knot_darkening"), s.knot_darkening);
   glUniform1f(loc("u_dead_outline"), s.dead_outline);
-  glUniform1i(loc("u_heartwood_tint"), s.heartwood_tint && d.has_heartwood ? 1 : 0);
-  for (int b = 0; b < 5; ++b) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, b, ssbo[b]);
+  glUniform1i(loc("u_heartwood_tint"),
+              s.heartwood_tint && d.has_heartwood && look.heartwood_visible ? 1 : 0);
+  glUniform1i(loc("u_supersample"), std::clamp(s.supersample, 1, 4));
+  glUniform1i(loc("u_outline_samples"), 1);
+  glUniform1f(loc("u_strip_rings"), strip.rings);
+  glUniform1f(loc("u_strip_luma"), strip.luma);
+  auto rgb = [&](const char* n, const std::array<float, 3>& c) {
+    glUniform3f(loc(n), c[0], c[1], c[2]);
+  };
+  rgb("u_knot_sound", look.knot_sound);
+  rgb("u_knot_dead", look.knot_dead);
+  rgb("u_bark_ring", look.bark_ring);
+  rgb("u_heart_tint", look.heart_tint);
+  rgb("u_bark_inner", look.bark_inner);
+  rgb("u_bark_outer", look.bark_outer);
+  glUniform1f(loc("u_knot_rings"), look.knot_rings);
+  const bool bark_on = s.bark && s.mode == ShadeMode::kWood;
+  glUniform1i(loc("u_bark_count"), bark_on ? static_cast<GLint>(bark.size()) : 0);
+  glUniform1f(loc("u_bark_step"), static_cast<float>(log->stem.dz_mm));
+  glUniform1f(loc("u_bark_default"),
+              bark_on && bark.empty() ? static_cast<float>(look.bark_default_mm) : 0.0f);
+  for (int b = 0; b < 6; ++b) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, b, ssbo[b]);
+  // Pixels that take several samples write their coverage of the wood to alpha (wood.frag).
+  if (s.mode == ShadeMode::kWood && s.supersample > 1) {
+    glEnable(GL_BLEND);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  } else {
+    glDisable(GL_BLEND);
+  }
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, stem_tex);
   for (int i = 0; i < 3; ++i) {
@@ -299,12 +410,17 @@ Result<std::unique_ptr<WoodRenderer>> WoodRenderer::create(const LogModel& log,
   impl->data = build_gpu_log_data(*impl->field, lo);
   const GpuLogData& d = impl->data;
 
-  glGenBuffers(5, impl->ssbo);
+  impl->look = wood_look(options.species.empty() ? log.species : options.species);
+  impl->strip = strip_stats(strips[0]);
+  for (double b : log.stem.bark_mm) impl->bark.push_back(static_cast<float>(b));
+  glGenBuffers(6, impl->ssbo);
   impl->upload_ssbo(0, d.pith);
   impl->upload_ssbo(1, d.tracks);
   impl->upload_ssbo(2, d.knots);
   impl->upload_ssbo(3, d.cell_start);
   impl->upload_ssbo(4, d.cell_knots);
+  // An empty buffer cannot be bound: one zero when the model has no bark (u_bark_count is 0).
+  impl->upload_ssbo(5, impl->bark.empty() ? std::vector<float>{0.0f} : impl->bark);
 
   glGenTextures(1, &impl->stem_tex);
   glBindTexture(GL_TEXTURE_2D, impl->stem_tex);
@@ -347,7 +463,6 @@ void WoodRenderer::draw(const Scene& scene, const Camera& camera, const Viewport
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDisable(GL_CULL_FACE);
-  glDisable(GL_BLEND);
   // Boards: closed boxes are drawn without their far sides.
   std::vector<Vertex> v;
   for (const BoardBox& b : scene.boards)
@@ -386,11 +501,13 @@ void WoodRenderer::draw(const Scene& scene, const Camera& camera, const Viewport
   for (const PlaneRect& p : scene.planes) push_rect(v, p);
   m.draw_vertices(v, 5e-4f);
   if (scene.log_surface) {
-    if (!m.surface_vbo) {
-      m.build_surface();
+    const bool with_bark = shade.bark && shade.mode == ShadeMode::kWood;
+    if (!m.surface_vbo || m.surface_bark != with_bark) {
+      m.build_surface(with_bark);
       glBindVertexArray(m.vao);
     }
     glUniform1f(glGetUniformLocation(m.program.id(), "u_surface_tol"), 0.03f);
+    glUniform1i(glGetUniformLocation(m.program.id(), "u_outline_samples"), 0);
     glUniform1f(glGetUniformLocation(m.program.id(), "u_z_begin"),
                 static_cast<float>(std::max<double>(m.data.z_begin, scene.surface_z0)));
     glUniform1f(glGetUniformLocation(m.program.id(), "u_z_end"),
@@ -407,6 +524,7 @@ void WoodRenderer::draw(const Scene& scene, const Camera& camera, const Viewport
     glDisable(GL_CULL_FACE);
     glDisable(GL_POLYGON_OFFSET_FILL);
   }
+  glDisable(GL_BLEND);
   glBindVertexArray(0);
 }
 
@@ -416,7 +534,6 @@ void WoodRenderer::draw_plane(const PlaneRect& rect, const Viewport& viewport,
   m.set_uniforms(Camera::plane_view(rect), viewport, shade);
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);
-  glDisable(GL_BLEND);
   // One triangle twice the rect's size, clipped by the viewport to exactly the rect.
   std::vector<Vertex> v;
   const Vec3 n = rect.normal();
@@ -425,6 +542,7 @@ void WoodRenderer::draw_plane(const PlaneRect& rect, const Viewport& viewport,
         Vertex{{static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)},
                {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)}});
   m.draw_vertices(v, 5e-4f);
+  glDisable(GL_BLEND);
   glBindVertexArray(0);
 }
 
@@ -449,5 +567,7 @@ Vec3 WoodRenderer::pith_point(double z) const {
 }
 
 double WoodRenderer::max_radius() const { return impl_->data.max_radius; }
+
+const WoodLook& WoodRenderer::look() const { return impl_->look; }
 
 }  // namespace sawyer::render

@@ -30,20 +30,6 @@ void board_extent(const Board& b, double* su, double* sv) {
   *sv = thick_u ? b.width_mm : b.thickness_mm;
 }
 
-Board board_from_record(const BoardRecord& rec, int spec) {
-  Board b;
-  b.spec = spec;
-  b.name = rec.name;
-  b.thickness_mm = rec.thickness_mm;
-  b.width_mm = rec.width_mm;
-  b.thickness_axis = rec.thickness_axis;
-  b.u_mm = rec.u_mm;
-  b.v_mm = rec.v_mm;
-  b.z_begin = rec.z_begin_mm;
-  b.z_end = rec.z_end_mm;
-  return b;
-}
-
 // "Nice" tick positions covering [lo, hi], about `n` of them.
 std::vector<double> ticks(double lo, double hi, int n) {
   std::vector<double> out;
@@ -200,7 +186,7 @@ BoardSet place_boards(const RunFolder& run, const SawLog& log) {
   auto from_json = [&](const std::string& why) {
     set.boards.clear();
     for (size_t i = 0; i < s.boards.size(); ++i)
-      set.boards.push_back(board_from_record(s.boards[i], static_cast<int>(i)));
+      set.boards.push_back(s.boards[i].board(static_cast<int>(i)));
     set.rebuilt = false;
     set.note = "Boards placed from sawing.json: " + why;
     return set;

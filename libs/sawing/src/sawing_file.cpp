@@ -188,6 +188,20 @@ Json position_file_json(const SavedPosition& p) {
 
 // ---- reading ----
 
+Board BoardRecord::board(int spec) const {
+  Board b;
+  b.spec = spec;
+  b.name = name;
+  b.thickness_mm = thickness_mm;
+  b.width_mm = width_mm;
+  b.thickness_axis = thickness_axis;
+  b.u_mm = u_mm;
+  b.v_mm = v_mm;
+  b.z_begin = z_begin_mm;
+  b.z_end = z_end_mm;
+  return b;
+}
+
 std::string BoardRecord::limit_and_offcuts() const {
   if (offcut_begin_mm <= 0 && offcut_end_mm <= 0) return limited_by;
   return limited_by + sawing::offcut_note(z_begin_mm - offcut_begin_mm, z_end_mm + offcut_end_mm,

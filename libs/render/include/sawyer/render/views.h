@@ -15,8 +15,10 @@ struct ImageSize {
   int height = 0;  // 0: from the content's aspect ratio (board faces, sections)
 };
 
-// Image size limits. The image is rendered into a framebuffer of (w·n) × (h·n) samples for n × n
-// supersampling, 4 bytes a sample (16 for the float time field, which is not supersampled), and
+// Image size limits. The image is rendered into a framebuffer of w × h pixels (board faces and
+// sections, whose n × n samples are taken inside the shader where needed), or (w·n) × (h·n)
+// for 3D views and FaceLayout::adaptive off; 4 bytes a sample (16 for the float time field),
+// and
 // read back to the host, where it is held twice while its rows are flipped: at most
 // kMaxFramebufferBytes (512 MiB, so about 1 GiB of host memory at the peak and the same on the
 // GPU). 8192 per side is a 68-megapixel print; GPUs' renderbuffers stop at 16384 or 32768.
@@ -32,9 +34,14 @@ struct FaceLayout {
   // pad with the background).
   bool stretch = false;
   int gap_px = 8;  // between stacked faces
-  // Supersampling: render n x n samples per pixel and average them (anti-aliasing of the fine
-  // rings; costs n² times the shading). 1 = one sample per pixel.
+  // Supersampling: n x n samples per pixel, averaged (anti-aliasing of knot edges, bark rings
+  // and crowded rings). 1 = one sample per pixel.
   int supersample = 1;
+  // Board faces and sections: the n x n samples only in pixels where the field changes within
+  // the pixel (ShadeOptions::supersample, wood.frag), one elsewhere. Off: every pixel, in a
+  // framebuffer n times the size (the reference the adaptive image is checked against). 3D
+  // views always take every pixel's samples.
+  bool adaptive = true;
   float background[4] = {0.12f, 0.12f, 0.13f, 1.0f};
 };
 

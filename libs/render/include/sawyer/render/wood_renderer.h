@@ -21,6 +21,7 @@
 #pragma once
 
 #include <filesystem>
+#include <array>
 #include <memory>
 #include <string>
 
@@ -32,6 +33,28 @@
 #include "sawyer/render/scene.h"
 
 namespace sawyer::render {
+
+// How a species' wood looks beyond its colour strip: its knots, heartwood and bark (display RGB,
+// 0-1). The strip gives the rings of clear wood; a knot takes its own colour with its own rings
+// (the strip's ring pattern at the knot's time, contrast raised by `knot_rings`); a dead knot is
+// ringed by encased bark. wood_look() holds the presets and docs/render.md ("Species looks")
+// what they were compared with.
+struct WoodLook {
+  std::string name;
+  std::array<float, 3> knot_sound{};  // sound (live) knot wood, mid-ring
+  std::array<float, 3> knot_dead{};   // dead knot wood, mid-ring
+  std::array<float, 3> bark_ring{};   // encased bark around a dead knot
+  std::array<float, 3> heart_tint{};  // multiplies the ring colour in heartwood
+  std::array<float, 3> bark_inner{};  // inner bark (phloem), next to the wood
+  std::array<float, 3> bark_outer{};  // outer bark
+  float knot_rings = 2.5f;            // exponent on the strip's ring contrast inside knots
+  bool heartwood_visible = false;     // spruce: no coloured heartwood
+  double bark_default_mm = 0;         // bark drawn where the model has none
+};
+
+// The look for a species: "pine" (Scots pine) or "spruce" (Norway spruce); other names and ""
+// get the spruce look, with `known` (when given) set false.
+WoodLook wood_look(const std::string& species, bool* known = nullptr);
 
 struct RenderOptions {
   // The field's parameters, the same as the CPU WoodField's (knot outline noise, reference radius).
@@ -47,6 +70,8 @@ struct RenderOptions {
   double index_dz_mm = 20.0;
   double index_dr_mm = 20.0;
   int index_sectors = 16;
+  // The look: a species preset by name (wood_look); empty: the log model's species.
+  std::string species;
 
   Status validate() const;
 };
@@ -59,8 +84,15 @@ struct ShadeOptions {
   float ambient = 0.75f, diffuse = 0.35f, specular = 0.35f;
   float knot_darkening = 1.0f;  // 0 = knots in the plain ring colour
   float dead_outline = 1.0f;    // 0 = no outline around dead knots
-  bool heartwood_tint = true;   // darker heartwood where the model has a heartwood radius
+  bool heartwood_tint = true;   // heartwood tint where the model has a heartwood radius and the
+                                // species shows it (WoodLook::heartwood_visible)
   bool lighting = true;
+  // Bark outside the wood, from the model's bark thickness (or the look's default): on board
+  // faces where they leave the log (wane), on sections, and the log's surface drawn with it.
+  bool bark = false;
+  // Anti-aliasing: pixels where the field changes within the pixel (knot edges, bark rings, the
+  // outline, crowded rings) take n x n samples; the others one (wood.frag). 1: one everywhere.
+  int supersample = 1;
 };
 
 // Figures about the knot index, for reports and benchmarks.
@@ -96,6 +128,8 @@ class WoodRenderer {
   Vec3 pith_point(double z) const;
   // Largest outer radius over the whole log, mm.
   double max_radius() const;
+  // The look in use (RenderOptions::species or the log's species).
+  const WoodLook& look() const;
 
  private:
   struct Impl;

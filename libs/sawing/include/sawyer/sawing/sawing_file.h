@@ -89,6 +89,9 @@ struct BoardRecord {
   // Cross-cut to value ("offcuts_mm"): the pieces cut off its sawn length at z_begin and z_end.
   double offcut_begin_mm = 0, offcut_end_mm = 0;
   double length_mm() const { return z_end_mm - z_begin_mm; }
+  // The board as the sawing model describes it (its box; grade and value stay here), as pattern
+  // board `spec`: what the report, the renderer and the export draw from a run's sawing.json.
+  Board board(int spec) const;
   // limited_by, and the offcuts where the board was cross-cut ("…; cross-cut, 0.60 m off at z 0.00
   // m").
   std::string limit_and_offcuts() const;
