@@ -124,6 +124,11 @@ vec3 wood_shade(WoodSample s, vec3 p, WoodShading sh) {
   float knot_weight = dead ? 1.0 - smoothstep(0.985, 1.0, s.dead_depth)
                            : 1.0 - smoothstep(0.92, 1.02, s.near_depth);
   color = mix(color, knot_color * rings, u_knot_darkening * knot_weight);
+  if (!dead && s.near_rho > 0.0) {
+    // A sound knot's rim: its last rings, darker where the knot meets the stem's wood.
+    float rim = smoothstep(0.84, 0.95, s.near_depth) * (1.0 - smoothstep(0.99, 1.02, s.near_depth));
+    color *= 1.0 - 0.2 * u_knot_darkening * rim;
+  }
   if (dead && width > 0.0) {
     // The ring lies just inside the knot's outline, its inner side softer than its outer one.
     float inner = smoothstep(1.0 - width - 0.03, 1.0 - width, s.dead_depth);

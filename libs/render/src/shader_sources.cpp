@@ -1,5 +1,9 @@
 // The embedded shader files (generated at build time from shaders/) and the #include assembler.
 #include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -68,6 +72,12 @@ std::vector<std::string> embedded_shader_names() {
 }
 
 std::string embedded_shader(const std::string& name) {
+  // A folder of shader files that take the embedded ones' place (shader development, and the
+  // render gallery's "before" images drawn with an earlier commit's shaders).
+  if (const char* dir = std::getenv("SAWYER_SHADER_DIR"); dir != nullptr && *dir != '\0') {
+    std::ifstream in(std::filesystem::path(dir) / name, std::ios::binary);
+    if (in) return std::string(std::istreambuf_iterator<char>(in), {});
+  }
   for (const EmbeddedFile& f : kEmbedded)
     if (name == f.name) return f.text;
   return {};

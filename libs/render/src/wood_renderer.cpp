@@ -138,7 +138,7 @@ WoodLook wood_look(const std::string& species, bool* known) {
     l.heart_tint = {0.91f, 0.82f, 0.72f};
     l.bark_inner = {0.58f, 0.38f, 0.27f};
     l.bark_outer = {0.42f, 0.33f, 0.27f};
-    l.knot_rings = 2.5f;
+    l.knot_rings = 3.5f;
     l.heartwood_visible = true;
     l.bark_default_mm = 10;
     return l;
@@ -152,7 +152,7 @@ WoodLook wood_look(const std::string& species, bool* known) {
   l.heart_tint = {1.0f, 1.0f, 1.0f};
   l.bark_inner = {0.62f, 0.40f, 0.28f};
   l.bark_outer = {0.46f, 0.35f, 0.29f};
-  l.knot_rings = 2.5f;
+  l.knot_rings = 3.5f;
   l.heartwood_visible = false;
   l.bark_default_mm = 6;
   return l;

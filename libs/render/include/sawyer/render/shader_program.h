@@ -59,7 +59,9 @@ class ShaderProgram {
   unsigned id_ = 0;
 };
 
-// Names of the embedded shader files, and one file's text (empty when unknown).
+// Names of the embedded shader files, and one file's text (empty when unknown). Where the
+// environment names a folder, SAWYER_SHADER_DIR, a file of that name there is read instead (for
+// shader development and before/after comparisons; docs/render.md "Gallery").
 std::vector<std::string> embedded_shader_names();
 std::string embedded_shader(const std::string& name);
 

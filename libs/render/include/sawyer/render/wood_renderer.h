@@ -47,7 +47,7 @@ struct WoodLook {
   std::array<float, 3> heart_tint{};  // multiplies the ring colour in heartwood
   std::array<float, 3> bark_inner{};  // inner bark (phloem), next to the wood
   std::array<float, 3> bark_outer{};  // outer bark
-  float knot_rings = 2.5f;            // exponent on the strip's ring contrast inside knots
+  float knot_rings = 3.5f;            // exponent on the strip's ring contrast inside knots
   bool heartwood_visible = false;     // spruce: no coloured heartwood
   double bark_default_mm = 0;         // bark drawn where the model has none
 };
