@@ -56,7 +56,8 @@ bool read_rgb(const std::string& path, Rgb8* im) {
   im->h = s.height;
   im->px.resize(static_cast<size_t>(s.width) * s.height * 3);
   for (size_t i = 0; i < static_cast<size_t>(s.width) * s.height; ++i)
-    for (int c = 0; c < 3; ++c) im->px[i * 3 + c] = all[i * s.nchannels + std::min(c, s.nchannels - 1)];
+    for (int c = 0; c < 3; ++c)
+      im->px[i * 3 + c] = all[i * s.nchannels + std::min(c, s.nchannels - 1)];
   return true;
 }
 
@@ -119,7 +120,8 @@ int main(int argc, char** argv) {
 
   std::string vs, fs, params;
   if (!read_text(setup + "/main.vert", &vs) || !read_text(setup + "/main.frag", &fs)) {
-    std::fprintf(stderr, "%s: no main.vert / main.frag (a checkout's setup/ folder)\n", setup.c_str());
+    std::fprintf(stderr, "%s: no main.vert / main.frag (a checkout's setup/ folder)\n",
+                 setup.c_str());
     return 1;
   }
   float rmin = 0, rmax = 0, hmax = 0;
@@ -144,9 +146,13 @@ int main(int argc, char** argv) {
   EGLConfig cfg = nullptr;
   EGLint n_cfg = 0;
   eglChooseConfig(d, cfg_attr, &cfg, 1, &n_cfg);
-  const EGLint ctx_attr[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 3,
+  const EGLint ctx_attr[] = {EGL_CONTEXT_MAJOR_VERSION,
+                             3,
+                             EGL_CONTEXT_MINOR_VERSION,
+                             3,
                              EGL_CONTEXT_OPENGL_PROFILE_MASK,
-                             EGL_CONTEXT_OPENGL_COMPATIBILITY_PROFILE_BIT, EGL_NONE};
+                             EGL_CONTEXT_OPENGL_COMPATIBILITY_PROFILE_BIT,
+                             EGL_NONE};
   EGLContext ctx = eglCreateContext(d, n_cfg ? cfg : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, ctx_attr);
   if (ctx == EGL_NO_CONTEXT || !eglMakeCurrent(d, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx)) {
     std::fprintf(stderr, "no OpenGL 3.3 compatibility context\n");
@@ -245,7 +251,8 @@ int main(int argc, char** argv) {
   std::printf("published shader, %d x %d, one sample per pixel: median %.3f s of %d frames\n", W, H,
               times[times.size() / 2], frames);
 
-  std::vector<unsigned char> rgba(static_cast<size_t>(W) * H * 4), rgb(static_cast<size_t>(W) * H * 3);
+  std::vector<unsigned char> rgba(static_cast<size_t>(W) * H * 4),
+      rgb(static_cast<size_t>(W) * H * 3);
   glReadPixels(0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x)

@@ -222,19 +222,22 @@ int main(int argc, char** argv) {
       layout.supersample = n;
       layout.adaptive = adaptive;
       layout.stretch = true;  // the face fills the square image, as in the rows above
-      Result<Image> img = render_board_faces(*indexed.value(), full,
-                                             static_cast<unsigned>(Face::kTop), {size, size}, {},
-                                             layout);
+      Result<Image> img = render_board_faces(
+          *indexed.value(), full, static_cast<unsigned>(Face::kTop), {size, size}, {}, layout);
       if (!img) std::cerr << img.error().message() << "\n";
     };
   };
   quality.push_back({"1 sample per pixel", time_frames(frames, image_frame(1, true))});
   quality.push_back({"2 x 2 samples where the wood changes within a pixel (default)",
                      time_frames(frames, image_frame(2, true))});
-  quality.push_back({"2 x 2 samples in every pixel (before)", time_frames(frames, image_frame(2, false))});
-  quality.push_back({"3 x 3 samples where the wood changes", time_frames(frames, image_frame(3, true))});
-  std::printf("\n%d x %d board face image of the whole log (render_board_faces: shading, read-back, "
-              "averaging), median of %d:\n", size, size, frames);
+  quality.push_back(
+      {"2 x 2 samples in every pixel (before)", time_frames(frames, image_frame(2, false))});
+  quality.push_back(
+      {"3 x 3 samples where the wood changes", time_frames(frames, image_frame(3, true))});
+  std::printf(
+      "\n%d x %d board face image of the whole log (render_board_faces: shading, read-back, "
+      "averaging), median of %d:\n",
+      size, size, frames);
   std::printf("| samples | wall | CPU |\n|---|---:|---:|\n");
   for (const QualityRow& q : quality)
     std::printf("| %s | %.3f s | %.3f s |\n", q.what.c_str(), q.t.wall, q.t.cpu);

@@ -447,8 +447,9 @@ TEST(RenderLimits, BoardGeometryOutOfRangeIsRefused) {
 TEST(RenderLimits, TheCommandRefusesAnOversizedImageBeforeRendering) {
   test::TempDir dir;
   const std::string log = test::quoted(gran1_json());
-  for (const std::string& opts : {std::string("--size 16384"), std::string("--size 8192x8192 --supersample-all"),
-                                  std::string("--size 6000x6000 --supersample 1 --field")}) {
+  for (const std::string& opts :
+       {std::string("--size 16384"), std::string("--size 8192x8192 --supersample-all"),
+        std::string("--size 6000x6000 --supersample 1 --field")}) {
     std::string out;
     const fs::path img = dir / (opts.find("--field") != std::string::npos ? "s.exr" : "s.png");
     EXPECT_EQ(test::run_sawyer(

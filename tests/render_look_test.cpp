@@ -64,8 +64,8 @@ KnotFace render_knot_face(WoodRenderer& r, const FaceLayout& layout = {}, double
   k.face = board_face(k.board, Face::kTop);
   ShadeOptions flat;
   flat.lighting = false;
-  Result<Image> img =
-      render_board_faces(r, k.board, static_cast<unsigned>(Face::kTop), {width_px, 0}, flat, layout);
+  Result<Image> img = render_board_faces(r, k.board, static_cast<unsigned>(Face::kTop),
+                                         {width_px, 0}, flat, layout);
   EXPECT_TRUE(img.ok()) << img.error().message();
   if (img) k.image = std::move(img).value();
   return k;
@@ -85,7 +85,8 @@ TEST(RenderLook, KnotsShowTheirOwnRingsInTheirOwnColourAndDeadKnotsABarkRing) {
   Stats clear, sound, dead_core, dead_inner_band, dead_rim;
   for (int y = 0; y < im.height; ++y)
     for (int x = 0; x < im.width; ++x) {
-      const FieldSample s = field.sample(k.face.at((x + 0.5) / im.width, 1.0 - (y + 0.5) / im.height));
+      const FieldSample s =
+          field.sample(k.face.at((x + 0.5) / im.width, 1.0 - (y + 0.5) / im.height));
       const double l = luma(im, x, y), red = redness(im, x, y);
       if (s.knot < 0) {
         if (std::abs(s.t - s.t_stem) < 0.005f) clear.add(l, red);
@@ -105,14 +106,16 @@ TEST(RenderLook, KnotsShowTheirOwnRingsInTheirOwnColourAndDeadKnotsABarkRing) {
   ASSERT_GT(dead_rim.n, 100);
   // Knots darker and redder than clear wood, dead knots darker than sound ones.
   EXPECT_LT(sound.mean(), clear.mean() - 0.12) << sound.mean() << " vs " << clear.mean();
-  EXPECT_GT(sound.redness(), clear.redness() + 0.03) << sound.redness() << " vs " << clear.redness();
+  EXPECT_GT(sound.redness(), clear.redness() + 0.03)
+      << sound.redness() << " vs " << clear.redness();
   EXPECT_LT(dead_core.mean(), sound.mean() - 0.05);
   // Their own rings: the knot's wood varies as much as clear wood's rings do, not a flat fill.
   EXPECT_GT(sound.sd(), 0.5 * clear.sd()) << sound.sd() << " vs clear wood " << clear.sd();
   EXPECT_GT(dead_core.sd(), 0.015);
   // The encased bark: a dark ring at the dead knot's outline, and no band lighter than the
   // knot's own wood just inside it.
-  EXPECT_LT(dead_rim.mean(), 0.6 * dead_core.mean()) << dead_rim.mean() << " vs " << dead_core.mean();
+  EXPECT_LT(dead_rim.mean(), 0.6 * dead_core.mean())
+      << dead_rim.mean() << " vs " << dead_core.mean();
   EXPECT_LT(dead_inner_band.mean(), dead_core.mean() + 0.04)
       << "a pale band inside the bark ring: " << dead_inner_band.mean() << " vs core "
       << dead_core.mean();
@@ -147,8 +150,8 @@ TEST(RenderLook, AdaptiveSamplesAgreeWithSamplesInEveryPixel) {
   for (int y = 1; y + 1 < h; ++y)
     for (int x = 1; x + 1 < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
-      const bool edge = knot[i] != knot[i - 1] || knot[i] != knot[i + 1] || knot[i] != knot[i - w] ||
-                        knot[i] != knot[i + w];
+      const bool edge = knot[i] != knot[i - 1] || knot[i] != knot[i + 1] ||
+                        knot[i] != knot[i - w] || knot[i] != knot[i + w];
       double d1 = 0, d2 = 0;
       for (int ch = 0; ch < 3; ++ch) {
         d1 += std::abs(int(a.u8[4 * i + ch]) - int(c.u8[4 * i + ch])) / 3.0;
@@ -246,8 +249,8 @@ TEST(RenderLook, BarkIsDrawnOutsideTheWoodOnlyWhenAsked) {
   ASSERT_TRUE(without.ok() && with.ok());
   const PlaneRect rect = cross_section_rect(*r.value(), z);
   const Stem& s = log.stem;
-  const int i = std::clamp(static_cast<int>(std::lround((z - s.z0_mm) / s.dz_mm)), 0,
-                           s.slice_count() - 1);
+  const int i =
+      std::clamp(static_cast<int>(std::lround((z - s.z0_mm) / s.dz_mm)), 0, s.slice_count() - 1);
   const double bark_mm = log.stem.bark_mm[i];
   ASSERT_GT(bark_mm, 5.0);
   Stats in_bark_with, in_bark_without, wood, beyond;

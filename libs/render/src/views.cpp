@@ -23,8 +23,7 @@ int framebuffer_scale(const ShadeOptions& shade, const FaceLayout& layout, bool 
 }
 
 // The size against the limits, for the shading and layout it is rendered with.
-Status check_size(int w, int h, const ShadeOptions& shade, const FaceLayout& layout,
-                  bool planes) {
+Status check_size(int w, int h, const ShadeOptions& shade, const FaceLayout& layout, bool planes) {
   return check_image_size(w, h, framebuffer_scale(shade, layout, planes),
                           shade.mode == ShadeMode::kTimeField);
 }
@@ -127,8 +126,7 @@ Result<Image> render_board_faces(WoodRenderer& r, const BoardBox& board, unsigne
   } else {
     sx = sy = std::min(sx, std::max(1.0, static_cast<double>(size.height - gaps)) / sum_h);
   }
-  if (Status st = check_size(size.width, size.height, shade, layout, true); !st)
-    return st.error();
+  if (Status st = check_size(size.width, size.height, shade, layout, true); !st) return st.error();
   std::vector<Tile> tiles;
   double y = 0;  // from the top of the image
   for (const PlaneRect& p : rects) {
@@ -186,8 +184,7 @@ Result<Image> render_longitudinal_section(WoodRenderer& r, const LongitudinalSec
 Result<Image> render_view(WoodRenderer& r, const Scene& scene, const Camera& camera, ImageSize size,
                           const ShadeOptions& shade, const FaceLayout& layout) {
   if (size.height <= 0) size.height = std::max(1, size.width * 3 / 4);
-  if (Status st = check_size(size.width, size.height, shade, layout, false); !st)
-    return st.error();
+  if (Status st = check_size(size.width, size.height, shade, layout, false); !st) return st.error();
   const bool is_float = shade.mode == ShadeMode::kTimeField;
   const int n = samples(shade, layout);
   ShadeOptions sh = shade;

@@ -208,8 +208,8 @@ struct WoodRenderer::Impl {
   // Bark thickness at height z, as the shader reads it (wood_bark_at).
   double bark_at(double z) const {
     if (bark.empty()) return look.bark_default_mm;
-    const double u = std::clamp((z - data.stem_z0) / log->stem.dz_mm, 0.0,
-                                static_cast<double>(bark.size() - 1));
+    const double u =
+        std::clamp((z - data.stem_z0) / log->stem.dz_mm, 0.0, static_cast<double>(bark.size() - 1));
     const size_t i = std::min(static_cast<size_t>(u), bark.size() > 1 ? bark.size() - 2 : 0);
     if (bark.size() == 1) return bark[0];
     return bark[i] + (bark[i + 1] - bark[i]) * (u - static_cast<double>(i));

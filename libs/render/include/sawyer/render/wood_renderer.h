@@ -20,8 +20,8 @@
 // the renderer. Not thread safe (OpenGL).
 #pragma once
 
-#include <filesystem>
 #include <array>
+#include <filesystem>
 #include <memory>
 #include <string>
 
