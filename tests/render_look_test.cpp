@@ -7,10 +7,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "sawyer/field/wood_field.h"
 #include "sawyer/model/log_generator.h"
+#include "sawyer/render/shader_program.h"
 #include "sawyer/render/views.h"
 #include "sawyer/render/wood_renderer.h"
 #include "sawyer/test/render_context.h"
@@ -274,6 +277,42 @@ TEST(RenderLook, BarkIsDrawnOutsideTheWoodOnlyWhenAsked) {
   EXPECT_GT(in_bark_with.mean(), 0.15) << "bark is drawn";
   EXPECT_LT(in_bark_with.mean(), wood.mean() - 0.2) << "bark darker than the wood";
   EXPECT_LT(beyond.mean(), 0.01) << "nothing beyond the bark";
+}
+
+// SAWYER_SHADER_DIR: a file there takes the embedded one's place (the gallery's "before" images
+// are drawn that way); the others stay embedded, and without the variable nothing changes.
+TEST(RenderLook, AShaderFolderReplacesTheEmbeddedFileItHolds) {
+  test::ensure_headless_context();
+  const LogModel& log = test::sample_model("gran1_spruce");
+  test::TempDir dir;
+  std::string frag = embedded_shader("wood.frag");
+  const std::string write = "out_color = vec4(wood_shade(s, v_pos, sh), 1.0);";
+  const size_t at = frag.find(write);
+  ASSERT_NE(at, std::string::npos) << "wood.frag's one-sample write moved; update this test";
+  frag.replace(at, write.size(), "out_color = vec4(0.0, 1.0, 0.0, 1.0);");
+  test::write_file(dir / "wood.frag", frag);
+  const auto render = [&]() {
+    auto r = WoodRenderer::create(log);
+    EXPECT_TRUE(r.ok()) << r.error().message();
+    return r ? render_knot_face(*r.value()).image : Image{};
+  };
+  const Image embedded = render();
+  ::setenv("SAWYER_SHADER_DIR", dir.path().c_str(), 1);
+  const Image replaced = render();
+  ::unsetenv("SAWYER_SHADER_DIR");
+  const Image again = render();
+  ASSERT_GT(embedded.width, 0);
+  ASSERT_EQ(replaced.width, embedded.width);
+  ASSERT_EQ(again.height, embedded.height);
+  int green = 0, same = 0;
+  for (int y = 0; y < embedded.height; ++y)
+    for (int x = 0; x < embedded.width; ++x) {
+      green += replaced.value(x, y, 0) < 0.01f && replaced.value(x, y, 1) > 0.99f;
+      same += embedded.value(x, y, 0) == again.value(x, y, 0);
+    }
+  const int n = embedded.width * embedded.height;
+  EXPECT_GT(green, n / 2) << "the folder's wood.frag drew most pixels (one sample each)";
+  EXPECT_EQ(same, n) << "without the variable the embedded shader is back";
 }
 
 }  // namespace
