@@ -105,17 +105,18 @@ def main():
         w, h = int(a[3]), int(a[4])
         samples = int(a[5]) if len(a) > 5 else 32
         sc = setup_cycles(w, h, samples)
-        sc.view_settings.view_transform = "Filmic"
-        world(0.6, (0.9, 0.93, 1.0))
+        world(0.35, (0.9, 0.93, 1.0))
         sun = bpy.data.lights.new("sun", "SUN")
-        sun.energy = 3.0
+        sun.energy = 2.5
         sun_obj = bpy.data.objects.new("sun", sun)
         bpy.context.scene.collection.objects.link(sun_obj)
         sun_obj.rotation_euler = (math.radians(40), math.radians(15), math.radians(30))
         lo, hi = bounds(boards)
         centre = (lo + hi) / 2
         size = (hi - lo).length
-        eye = centre + Vector((0.55, 0.75, 0.5)).normalized() * size * 0.9
+        # From above and to the side of the butt end (Sawyer's z = 0 is Blender's y = 0, the
+        # boards run to -y): the top faces, one edge and the butt ends in view.
+        eye = centre + Vector((1.0, 0.45, 0.75)).normalized() * size * 1.5
         direction = centre - eye
         rot = direction.to_track_quat("-Z", "Y").to_euler()
         camera(eye, rot, lens=50.0)
