@@ -1,8 +1,9 @@
 // The OSL shader's wood field (shaders/osl/sawyer_wood.h, compiled here as C++ through
 // tests/osl_shim.h) evaluated from the tables `sawyer export --osl-data` writes, read back from
 // their float EXR files, agrees with the GLSL renderer's field on board faces of the real spruce
-// log: the time field within 2e-3 at 99 % of the pixels, the ring index and the knot masks as
-// the GLSL/C++ agreement test (render_field_test.cpp) asks. And the data folder's rules.
+// log and of a generated pine: the time field within 2e-3 at 99 % of the pixels, the ring index
+// and the knot masks (knot and dead part) as the GLSL/C++ agreement test (render_field_test.cpp)
+// asks. And the data folder's rules.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,6 +15,7 @@
 
 #include "osl_shim.h"
 #include "sawyer/export/osl_data.h"
+#include "sawyer/model/log_generator.h"
 #include "sawyer/render/gl_context.h"
 #include "sawyer/render/scene.h"
 #include "sawyer/render/views.h"
@@ -67,32 +69,25 @@ void load(const fs::path& dir, OslLog& out) {
   lg.knot_noise = p["KnotNoise"];
 }
 
-TEST(OslField, AgreesWithTheGlslRendererOnBoardFaces) {
+struct Agreement {
+  int pixels = 0, close = 0, ring_agree = 0, knot_pixels = 0, knot_agree = 0, dead_pixels = 0;
+  double sum = 0;
+};
+
+// The OSL field against the GLSL renderer's raw field over the top and bottom faces of `b`.
+void compare_faces(const LogModel& log, const BoardBox& b, Agreement& out) {
   test::TempDir dir;
-  const LogModel& log = test::sample_model("gran1_spruce");
   Status st = write_osl_data(dir / "osl", log, {});
   ASSERT_TRUE(st.ok()) << st.error().message();
   OslLog osl;
   load(dir / "osl", osl);
-  if (HasFatalFailure()) return;
+  if (::testing::Test::HasFatalFailure()) return;
   EXPECT_EQ(osl.lg.knot_count, static_cast<int>(log.knots.size()));
-
   auto ctx = render::create_headless_context();
   ASSERT_TRUE(ctx.ok()) << ctx.error().message();
   auto r = render::WoodRenderer::create(log);
   ASSERT_TRUE(r.ok()) << r.error().message();
-  // render_field_test's board: 160 x 40 mm, 20 mm above the pith, z 1000 to 2000.
-  const Vec2 c = log.stem.pith_at(1500);
-  BoardBox b;
-  b.cx = c.x;
-  b.cy = c.y + 20;
-  b.width = 160;
-  b.thickness = 40;
-  b.z0 = 1000;
-  b.z1 = 2000;
-  constexpr double kRings = 60;  // ring index: floor(t × 60), about the log's annual rings
-  int pixels = 0, close = 0, ring_agree = 0, knot_pixels = 0, knot_agree = 0;
-  double sum = 0;
+  constexpr double kRings = 60;  // ring index: floor(t × 60), about the logs' annual rings
   for (render::Face f : {render::Face::kTop, render::Face::kBottom}) {
     const render::PlaneRect rect = render::board_face(b, f);
     const int w = 400, h = 64;
@@ -115,28 +110,73 @@ TEST(OslField, AgreesWithTheGlslRendererOnBoardFaces) {
         const float t_gl = img.value().value(x, y, 0);
         const float code = img.value().value(x, y, 3);
         const int gl_knot = code < 0 ? -1 : static_cast<int>(code);
-        ++pixels;
+        ++out.pixels;
         const double d = std::abs(static_cast<double>(t) - t_gl);
-        sum += d;
-        close += d <= 2e-3;
-        ring_agree += std::floor(t * kRings) == std::floor(t_gl * kRings) ||
-                      std::abs(t * kRings - std::round(t * kRings)) < 0.01;  // on a border
+        out.sum += d;
+        out.close += d <= 2e-3;
+        out.ring_agree += std::floor(t * kRings) == std::floor(t_gl * kRings) ||
+                          std::abs(t * kRings - std::round(t * kRings)) < 0.01;  // on a border
         if (knot >= 0 || gl_knot >= 0) {
-          ++knot_pixels;
-          knot_agree += knot == gl_knot;
+          ++out.knot_pixels;
+          out.dead_pixels += dead != 0;
+          out.knot_agree += knot == gl_knot && dead == (code - std::floor(code) > 0.25f);
         }
       }
   }
-  std::cout << "[ info ] OSL vs GLSL: " << pixels << " px, " << 100.0 * close / pixels
-            << " % within 2e-3, mean " << sum / pixels << "; ring index agrees at "
-            << 100.0 * ring_agree / pixels << " %; knot px " << knot_pixels << ", agree "
-            << knot_agree << "\n";
-  ASSERT_GT(pixels, 20000);
-  EXPECT_GE(close, pixels * 99 / 100);
-  EXPECT_LT(sum / pixels, 2e-4);
-  EXPECT_GE(ring_agree, pixels * 99 / 100);
-  EXPECT_GT(knot_pixels, 100);
-  EXPECT_GE(knot_agree, knot_pixels * 97 / 100);
+}
+
+void expect_agreement(const Agreement& a, const std::string& what) {
+  std::cout << "[ info ] " << what << ": OSL vs GLSL " << a.pixels << " px, "
+            << 100.0 * a.close / a.pixels << " % within 2e-3, mean " << a.sum / a.pixels
+            << "; ring index agrees at " << 100.0 * a.ring_agree / a.pixels << " %; knot px "
+            << a.knot_pixels << " (dead " << a.dead_pixels << "), agree (knot and dead) "
+            << a.knot_agree << "\n";
+  ASSERT_GT(a.pixels, 20000) << what;
+  EXPECT_GE(a.close, a.pixels * 99 / 100) << what;
+  EXPECT_LT(a.sum / a.pixels, 2e-4) << what;
+  EXPECT_GE(a.ring_agree, a.pixels * 99 / 100) << what;
+  EXPECT_GT(a.knot_pixels, 100) << what;
+  EXPECT_GE(a.knot_agree, a.knot_pixels * 97 / 100) << what;
+}
+
+// The real spruce: render_field_test's board, 160 x 40 mm, 20 mm above the pith.
+TEST(OslField, AgreesWithTheGlslRendererOnGran1BoardFaces) {
+  const LogModel& log = test::sample_model("gran1_spruce");
+  const Vec2 c = log.stem.pith_at(1500);
+  BoardBox b;
+  b.cx = c.x;
+  b.cy = c.y + 20;
+  b.width = 160;
+  b.thickness = 40;
+  b.z0 = 1000;
+  b.z1 = 2000;
+  Agreement a;
+  compare_faces(log, b, a);
+  if (HasFatalFailure()) return;
+  expect_agreement(a, "gran1 board 160 x 40");
+}
+
+// A generated pine (dead knots, heartwood): a thin board through the pith, whose faces cross
+// every knot near their start.
+TEST(OslField, AgreesWithTheGlslRendererOnAPineThroughThePith) {
+  GeneratorOptions o;
+  o.species = Species::kPine;
+  o.seed = 5;
+  o.length_mm = 3000;
+  Result<LogModel> log = generate_log(o);
+  ASSERT_TRUE(log.ok()) << log.error().message();
+  const Vec2 c = log.value().stem.pith_at(1200);
+  BoardBox b;
+  b.cx = c.x;
+  b.cy = c.y;
+  b.width = 240;
+  b.thickness = 12;
+  b.z0 = 600;
+  b.z1 = 1800;
+  Agreement a;
+  compare_faces(log.value(), b, a);
+  if (HasFatalFailure()) return;
+  expect_agreement(a, "pine board through the pith");
 }
 
 // The hash the knot outlines' noise rests on gives the same bits as the GLSL one

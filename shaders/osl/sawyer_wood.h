@@ -18,7 +18,8 @@
 //                      the file's first), exact (no filtering), coordinates clamped
 // and the math built-ins used below (OSL's own; tests/osl_shim.h for C++).
 //
-// Rules for editing: no arrays, no swizzles, no methods, no templates, no "const", no "unsigned"
+// Rules for editing: no names of OSL's shader globals (P, I, N, Ng, u, v, time, Ci, ...) for
+// variables, no arrays, no swizzles, no methods, no templates, no "const", no "unsigned"
 // or "u" suffixes; float literals with a decimal point; functions return one value and give
 // more through SW_OUT parameters; struct members are set one by one.
 
@@ -131,13 +132,13 @@ float sw_lattice(int i, int j, int pi, SW_UINT seed) {
   return float(h & 65535) / 32767.5 - 1.0;
 }
 
-float sw_noise(float u, float v, int pu, SW_UINT seed) {
-  float fu = floor(u);
-  float fv = floor(v);
+float sw_noise(float nu, float nv, int pu, SW_UINT seed) {
+  float fu = floor(nu);
+  float fv = floor(nv);
   int i = int(fu);
   int j = int(fv);
-  float su = smoothstep(0.0, 1.0, u - fu);
-  float sv = smoothstep(0.0, 1.0, v - fv);
+  float su = smoothstep(0.0, 1.0, nu - fu);
+  float sv = smoothstep(0.0, 1.0, nv - fv);
   float a = mix(sw_lattice(i, j, pu, seed), sw_lattice(i + 1, j, pu, seed), su);
   float b = mix(sw_lattice(i, j + 1, pu, seed), sw_lattice(i + 1, j + 1, pu, seed), su);
   return mix(a, b, sv);
@@ -159,9 +160,9 @@ float sw_knot_rho(float rho0, float dist, float beta, float r, SW_UINT knot_seed
 // ---- the log's tables (wood_log_data.glsl) ----------------------------------------------------
 
 void sw_pith_at(SwLog lg, float z, SW_OUT(float) x, SW_OUT(float) y) {
-  float u = clamp((z - lg.pith_z0) / lg.pith_step, 0.0, float(lg.pith_count - 1));
-  int i = min(int(u), lg.pith_count - 2);
-  float a = u - float(i);
+  float fz = clamp((z - lg.pith_z0) / lg.pith_step, 0.0, float(lg.pith_count - 1));
+  int i = min(int(fz), lg.pith_count - 2);
+  float a = fz - float(i);
   float x0 = 0.0;
   float y0 = 0.0;
   float x1 = 0.0;
