@@ -425,6 +425,24 @@ TEST(ExportCli, BadInputOneLineNothingWritten) {
                        &out),
       1);
   EXPECT_NE(out.find("sawing.json"), std::string::npos) << out;
+  // An --osl-data path that is a file, or a folder Sawyer did not write, is refused and kept.
+  test::write_file(dir / "notes.txt", "keep");
+  EXPECT_EQ(
+      test::run_sawyer("export " + gran1() + " --board " + kBoard + " --osl-data " +
+                           test::quoted(dir / "notes.txt") + " -o " + test::quoted(dir / "b.glb"),
+                       &out),
+      1);
+  EXPECT_NE(out.find("--osl-data: "), std::string::npos) << out;
+  fs::create_directories(dir / "theirs");
+  test::write_file(dir / "theirs" / "x.txt", "keep");
+  EXPECT_EQ(
+      test::run_sawyer("export " + gran1() + " --board " + kBoard + " --osl-data " +
+                           test::quoted(dir / "theirs") + " -o " + test::quoted(dir / "b.glb"),
+                       &out),
+      1);
+  EXPECT_NE(out.find("did not write"), std::string::npos) << out;
+  EXPECT_TRUE(fs::exists(dir / "theirs" / "x.txt"));
+  EXPECT_TRUE(fs::exists(dir / "notes.txt"));
   // An output that is a folder is refused and left alone.
   fs::create_directories(dir / "d.glb");
   EXPECT_EQ(
