@@ -300,6 +300,7 @@ TEST(ExportJob, AtlasThroughTheMeshUvsIsTheRenderersFaceImage) {
 // The normal map: unit normals facing out of the face everywhere; flat inside knots (as
 // wood.frag, which tilts only clear wood); tilted across the rings in much of the clear wood.
 // The roughness map: glTF's layout (R 1, B 0 = no metal), roughness within the strip's range.
+// One sample per texel, so that the knot mask is the field's at the texel centres.
 TEST(BoardBake, NormalAndRoughnessMapsFollowTheRings) {
   auto ctx = render::create_headless_context();
   ASSERT_TRUE(ctx.ok());
@@ -312,6 +313,7 @@ TEST(BoardBake, NormalAndRoughnessMapsFollowTheRings) {
   box.cy += c.y;
   BakeOptions o;
   o.px_per_mm = 0.5;
+  o.supersample = 1;
   Result<BakedBoard> b = bake_board(*r.value(), box, o);
   ASSERT_TRUE(b.ok()) << b.error().message();
   ASSERT_TRUE(b.value().strips);
@@ -347,6 +349,60 @@ TEST(BoardBake, NormalAndRoughnessMapsFollowTheRings) {
   ASSERT_GT(knot, 10) << "the board should cross knots";
   EXPECT_EQ(knot_flat, knot);
   EXPECT_GT(clear_tilted, clear / 4) << clear_tilted << " of " << clear;
+}
+
+// Supersampled normal and roughness maps are the mean of the samples: at 2 x 2 samples and
+// 0.5 px/mm they match 2 x 2 blocks of the one-sample maps at 1 px/mm (the same sample points),
+// averaged and renormalised, up to 8-bit rounding (which renormalising can enlarge a few times
+// where the samples' tilts nearly cancel).
+TEST(BoardBake, SupersampledMapsAreTheMeanOfTheirSamples) {
+  auto ctx = render::create_headless_context();
+  ASSERT_TRUE(ctx.ok());
+  auto r = render::WoodRenderer::create(test::sample_model("gran1_spruce"), {});
+  ASSERT_TRUE(r.ok());
+  BoardBox box = BoardBox::from_string(kBoard).value();
+  const Vec3 c = r.value()->pith_point(0.0);
+  box.cx += c.x;
+  box.cy += c.y;
+  BakeOptions coarse, fine;
+  coarse.px_per_mm = 0.5;
+  coarse.supersample = 2;
+  fine.px_per_mm = 1.0;
+  fine.supersample = 1;
+  Result<BakedBoard> a = bake_board(*r.value(), box, coarse);
+  Result<BakedBoard> b = bake_board(*r.value(), box, fine);
+  ASSERT_TRUE(a.ok() && b.ok());
+  for (int f = 0; f < 4; ++f) {
+    const AtlasRect& ra = a.value().rects[f];
+    const AtlasRect& rb = b.value().rects[f];
+    ASSERT_EQ(rb.w, 2 * ra.w);
+    ASSERT_EQ(rb.h, 2 * ra.h);
+    double worst = 0, sum = 0;
+    int tilted = 0;
+    for (int y = 0; y < ra.h; ++y)
+      for (int x = 0; x < ra.w; ++x) {
+        double m[3] = {0, 0, 0}, rough = 0;
+        for (int j = 0; j < 2; ++j)
+          for (int i = 0; i < 2; ++i) {
+            const int bx = rb.x + 2 * x + i, by = rb.y + 2 * y + j;
+            for (int k = 0; k < 3; ++k) m[k] += 2 * b.value().normal.value(bx, by, k) - 1;
+            rough += 0.25 * b.value().roughness.value(bx, by, 1);
+          }
+        const double len = std::sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+        for (int k = 0; k < 3; ++k) {
+          const double want = 0.5 * m[k] / len + 0.5;
+          const double d = std::abs(a.value().normal.value(ra.x + x, ra.y + y, k) - want);
+          worst = std::max(worst, d);
+          sum += d;
+        }
+        const double dr = std::abs(a.value().roughness.value(ra.x + x, ra.y + y, 1) - rough);
+        worst = std::max(worst, dr);
+        tilted += std::abs(m[0] / len) + std::abs(m[1] / len) > 0.05;
+      }
+    EXPECT_LE(worst, 10.0 / 255) << "face " << f;
+    EXPECT_LT(sum / (3.0 * ra.w * ra.h), 1.0 / 255) << "face " << f;
+    EXPECT_GT(tilted, ra.w * ra.h / 10) << "face " << f;
+  }
 }
 
 // ---- the command line -------------------------------------------------------------------------

@@ -162,46 +162,69 @@ Result<BakedBoard> bake_board(render::WoodRenderer& renderer, const BoardBox& bo
     for (size_t p = 3; p < col.u8.size(); p += 4) col.u8[p] = 255;  // opaque
     place(out.base_color, col, r);
 
-    Result<Image> f =
-        render::render_board_faces(renderer, box, bit, {r.w, r.h}, field, field_layout);
+    // The raw field at n x n samples per texel (as many as the framebuffer's side allows): the
+    // normals and roughness of a texel are the mean of its samples' (renormalised), so crowded
+    // rings blend instead of aliasing.
+    const int n = std::max(
+        1, std::min(o.supersample, render::kMaxImageSide / std::max(1, std::max(r.w, r.h))));
+    const int fw = r.w * n, fh = r.h * n;
+    Result<Image> f = render::render_board_faces(renderer, box, bit, {fw, fh}, field, field_layout);
     if (!f) return f.error();
     const Image& fi = f.value();
     Image nrm = blank_atlas(r.w, r.h), rough = blank_atlas(r.w, r.h);
+    // The pith at each sample column's height: a board face's v runs across the log (no z),
+    // so the height depends on the column alone.
+    const bool z_by_column = std::abs(rect.v.z) < 1e-12;
+    std::vector<Vec2> column_pith(z_by_column ? fw : 0);
+    for (int px = 0; px < static_cast<int>(column_pith.size()); ++px)
+      column_pith[px] = log.stem.pith_at(rect.at((px + 0.5) / fw, 0.0).z);
     for (int y = 0; y < r.h; ++y)
       for (int x = 0; x < r.w; ++x) {
-        const float t = fi.value(x, y, 0), t_stem = fi.value(x, y, 1), code = fi.value(x, y, 3);
-        const bool wood = t >= 0.0f && t_stem <= 1.0f;
-        float nx = 0, ny = 0, nz = 1, roughness = 0.7f;
-        if (wood && out.strips) {
-          // wood.frag's tilt: along the radial direction projected onto the face (not
-          // normalised), by the normal strip's x at t, none in knots.
-          const Vec3 p = rect.at((x + 0.5) / r.w, 1.0 - (y + 0.5) / r.h);
-          const Vec2 c0 = log.stem.pith_at(p.z);
-          Vec3 radial{p.x - c0.x, p.y - c0.y, 0};
-          radial = radial.normalized();
-          const double tu = dot(radial, rect.u), tv = dot(radial, rect.v);
-          const float tilt = code >= 0.0f ? 0.0f : 2.0f * normal_strip.at(t, 0) - 1.0f;
-          const float up = std::abs(2.0f * normal_strip.at(t, 2) - 1.0f);
-          const double len = std::sqrt(tilt * tilt * (tu * tu + tv * tv) + up * up);
-          if (len > 0) {
-            nx = static_cast<float>(tilt * tu / len);
-            ny = static_cast<float>(tilt * tv / len);
-            nz = static_cast<float>(up / len);
+        double sx = 0, sy = 0, sz = 0, sr = 0;
+        for (int sj = 0; sj < n; ++sj)
+          for (int si = 0; si < n; ++si) {
+            const int px = x * n + si, py = y * n + sj;
+            const float t = fi.value(px, py, 0), t_stem = fi.value(px, py, 1),
+                        code = fi.value(px, py, 3);
+            const bool wood = t >= 0.0f && t_stem <= 1.0f;
+            float nx = 0, ny = 0, nz = 1, roughness = 0.7f;
+            if (wood && out.strips) {
+              // wood.frag's tilt: along the radial direction projected onto the face (not
+              // normalised), by the normal strip's x at t, none in knots.
+              const Vec3 p = rect.at((px + 0.5) / fw, 1.0 - (py + 0.5) / fh);
+              const Vec2 c0 = z_by_column ? column_pith[px] : log.stem.pith_at(p.z);
+              Vec3 radial{p.x - c0.x, p.y - c0.y, 0};
+              radial = radial.normalized();
+              const double tu = dot(radial, rect.u), tv = dot(radial, rect.v);
+              const float tilt = code >= 0.0f ? 0.0f : 2.0f * normal_strip.at(t, 0) - 1.0f;
+              const float up = std::abs(2.0f * normal_strip.at(t, 2) - 1.0f);
+              const double len = std::sqrt(tilt * tilt * (tu * tu + tv * tv) + up * up);
+              if (len > 0) {
+                nx = static_cast<float>(tilt * tu / len);
+                ny = static_cast<float>(tilt * tv / len);
+                nz = static_cast<float>(up / len);
+              }
+              const float shine = (specular_strip.at(t, 0) - specular_strip.lo) /
+                                  std::max(specular_strip.hi - specular_strip.lo, 1e-3f);
+              roughness = kRoughDull - (kRoughDull - kRoughShiny) * shine;
+            } else if (!wood) {
+              roughness = 0.95f;  // bark and beyond
+            }
+            sx += nx;
+            sy += ny;
+            sz += nz;
+            sr += roughness;
           }
-          const float shine = (specular_strip.at(t, 0) - specular_strip.lo) /
-                              std::max(specular_strip.hi - specular_strip.lo, 1e-3f);
-          roughness = kRoughDull - (kRoughDull - kRoughShiny) * shine;
-        } else if (!wood) {
-          roughness = 0.95f;  // bark and beyond
-        }
-        std::uint8_t* n = &nrm.u8[(static_cast<size_t>(y) * r.w + x) * 4];
-        n[0] = to_u8(0.5f * nx + 0.5f);
-        n[1] = to_u8(0.5f * ny + 0.5f);
-        n[2] = to_u8(0.5f * nz + 0.5f);
-        n[3] = 255;
+        const double len = std::sqrt(sx * sx + sy * sy + sz * sz);
+        const Vec3 nm = len > 0 ? Vec3{sx / len, sy / len, sz / len} : Vec3{0, 0, 1};
+        std::uint8_t* nt = &nrm.u8[(static_cast<size_t>(y) * r.w + x) * 4];
+        nt[0] = to_u8(static_cast<float>(0.5 * nm.x + 0.5));
+        nt[1] = to_u8(static_cast<float>(0.5 * nm.y + 0.5));
+        nt[2] = to_u8(static_cast<float>(0.5 * nm.z + 0.5));
+        nt[3] = 255;
         std::uint8_t* g = &rough.u8[(static_cast<size_t>(y) * r.w + x) * 4];
         g[0] = 255;
-        g[1] = to_u8(roughness);
+        g[1] = to_u8(static_cast<float>(sr / (n * n)));
         g[2] = 0;
         g[3] = 255;
       }

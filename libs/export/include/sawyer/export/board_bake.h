@@ -11,7 +11,7 @@
 //   base_color  the renderer's wood colour without lighting (display sRGB), bark on wane;
 //   normal      tangent space (+x along the face's PlaneRect::u, +y along its v, +z out of the
 //               face; glTF's convention): the tilt of wood.frag's normal strip across the rings,
-//               none inside knots;
+//               none inside knots, the mean of each texel's samples;
 //   roughness   glTF's metallicRoughness layout: G = roughness from the specular strip at t
 //               (its shiniest band 0.55, its dullest 0.85: the published strip varies only
 //               from 41 to 53 of 255, so its range is stretched over a planed softwood's satin
@@ -32,8 +32,10 @@ namespace sawyer::exporter {
 
 struct BakeOptions {
   double px_per_mm = 1.0;  // texture resolution on every face (0.05 .. 8)
-  int supersample = 2;     // n x n samples where the wood changes within a texel (1..4)
-  bool bark = true;        // bark on wane (where a face leaves the log)
+  // Base colour: n x n samples where the wood changes within a texel (the renderer's adaptive
+  // supersampling); normal and roughness: n x n samples in every texel, averaged. 1..4.
+  int supersample = 2;
+  bool bark = true;  // bark on wane (where a face leaves the log)
   // Folder with wood_bar_normal.bmp and wood_bar_specular.bmp (the renderer's strips). Empty:
   // the bundled sample_logs/wood_color_maps when the source tree is there; without strips the
   // normal map is flat and the roughness 0.7.
