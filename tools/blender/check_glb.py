@@ -15,7 +15,7 @@ import numpy
 
 # Debian 12's Blender 3.4 glTF importer uses numpy.bool, an alias that Debian's numpy 1.24
 # removed (AttributeError on import); it was the builtin bool, so give it back.
-if not hasattr(numpy, "bool") or numpy.bool is not bool:
+if numpy.__dict__.get("bool") is not bool:
     try:
         numpy.bool = bool
     except AttributeError:
