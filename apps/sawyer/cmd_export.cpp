@@ -82,7 +82,8 @@ void add_export_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--px-per-mm", c->px_per_mm, "texture resolution on every face (0.05..8)")
       ->capture_default_str();
   cmd->add_option("--supersample", c->supersample,
-                  "n x n samples where the wood changes within a texel (1..4)")
+                  "n x n samples per texel: for the colour where the wood changes within it, "
+                  "for the normal and roughness maps in every texel (1..4)")
       ->capture_default_str();
   cmd->add_option("--color-maps", c->color_maps,
                   "folder with the wood colour, normal and specular strips (default: bundled)");
