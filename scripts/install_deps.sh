@@ -11,6 +11,7 @@ PACKAGES=(
   libglfw3-dev libceres-dev libgdcm-dev libgdcm-tools libsqlite3-dev libxxhash-dev libcairo2-dev libimgui-dev
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   xvfb xauth poppler-utils chromium fonts-dejavu-core sqlite3 clang-format git
+  blender python3-numpy
 )
 
 missing=()
@@ -20,8 +21,23 @@ for p in "${PACKAGES[@]}"; do
   fi
 done
 
+# node and npm for the glTF validator (tools/gltf): any install that gives the two commands.
+command -v node >/dev/null 2>&1 || missing+=(nodejs)
+command -v npm >/dev/null 2>&1 || missing+=(npm)
+
+# The Khronos glTF validator, pinned by tools/gltf/package-lock.json (npm registry).
+npm_tools() {
+  if [ ! -d tools/gltf/node_modules/gltf-validator ]; then
+    echo "install_deps: npm ci --prefix tools/gltf"
+    npm ci --prefix tools/gltf --no-audit --no-fund --silent ||
+      echo "install_deps: npm ci failed; ExportTools.KhronosValidatorFindsNoErrors will skip" >&2
+  fi
+}
+cd "$(dirname "$0")/.."
+
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install_deps: all ${#PACKAGES[@]} packages present"
+  npm_tools
   exit 0
 fi
 
@@ -31,3 +47,4 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+npm_tools

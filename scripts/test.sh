@@ -40,8 +40,8 @@ fi
 "${run[@]}" ctest --test-dir "$dir" --output-on-failure -j "$(nproc)"
 if [ "$mode" = sanitize ]; then
   # The leak pass: every test whose processes never open a GL context (no renderer, report,
-  # viewer, window, or `sawyer run`, which writes the report).
-  gl='Render|Viewer|Report|RunCli|Batch|PublishedRender|DataLoss|Interrupt|Concurrency|InventedSlices|Register.AFailed|RenderLimits|LogJsonLimits.EveryCommand'
+  # viewer, window, `sawyer run`, which writes the report, or `sawyer export`).
+  gl='Render|Viewer|Report|RunCli|Batch|PublishedRender|DataLoss|Interrupt|Concurrency|InventedSlices|Register.AFailed|RenderLimits|LogJsonLimits.EveryCommand|Export|BoardBake|OslField'
   ASAN_OPTIONS="detect_leaks=1:allocator_may_return_null=1" \
     "${run[@]}" ctest --test-dir "$dir" --output-on-failure -j "$(nproc)" -E "$gl"
 fi

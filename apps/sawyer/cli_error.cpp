@@ -36,6 +36,13 @@ constexpr OptionName kFlags[] = {
     {"RenderJob", "sawyer render"},
     {"WoodFieldParams::knot_noise", "--knot-noise"},
     {"RunJobOptions::output", "-o"},
+    {"ExportOptions::output", "-o"},
+    {"ExportOptions::osl_data", "--osl-data"},
+    {"ExportOptions::boards_in_scanner_frame", "--scanner-frame"},
+    {"ExportOptions::boards", "--board"},
+    {"ExportOptions", "sawyer export"},
+    {"BakeOptions::px_per_mm", "--px-per-mm"},
+    {"BakeOptions::supersample", "--supersample"},
     {"RunJobOptions::db", "--db"},
     {"RunJobOptions::no_register", "--no-register"},
     // The phantom's and the CT readers' options are their flags, '_' for '-', but for three.

@@ -11,6 +11,9 @@
 #include "cmd_phantom.h"
 #ifdef SAWYER_HAVE_RENDER
 #include "cmd_render.h"
+#ifdef SAWYER_HAVE_EXPORT
+#include "cmd_export.h"
+#endif
 #include "cmd_report.h"
 #include "cmd_run.h"
 #endif
@@ -160,6 +163,10 @@ int main(int argc, char** argv) {
   app::add_render_command(app, run_render);
   app::add_run_command(app, run_run);
 #endif
+  std::function<int()> run_export;
+#ifdef SAWYER_HAVE_EXPORT
+  app::add_export_command(app, run_export);
+#endif
   std::function<int()> run_report;
 #ifdef SAWYER_HAVE_RENDER
   app::add_report_command(app, run_report);
@@ -183,6 +190,7 @@ int main(int argc, char** argv) {
   if (run_render) return run_render();
   if (run_run) return run_run();
   if (run_report) return run_report();
+  if (run_export) return run_export();
   if (*generate)
     return cmd_generate(gen_species, gen_seed, gen_length_m, gen_top_mm, gen_position, gen_out);
   return 0;
