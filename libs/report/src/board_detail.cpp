@@ -146,6 +146,7 @@ SurfacePtr compose_faces(const BoardFaces& f, double px_per_cm, double ui,
     const BoardFaces::Row& row = f.rows[i];
     const int hpx = hs[i];
     lay.row_y.push_back(y);
+    lay.row_h.push_back(hpx);
     cairo_save(cr);
     cairo_rectangle(cr, label_w, y, len_px, hpx);
     cairo_clip(cr);
@@ -189,25 +190,29 @@ SurfacePtr compose_faces(const BoardFaces& f, double px_per_cm, double ui,
       draw_text(cr, std::to_string(m.knot_id), x,
                 yy - std::max(4.0 * ui, m.radius_px * scale) - 3 * ui, 0.5);
     }
+  lay.length_px = len_px;
   lay.width = cairo_image_surface_get_width(surf.get());
   lay.height = total_h;
   if (layout) *layout = lay;
   return surf;
 }
 
-SurfacePtr crop_around(const BoardFaces& f, const FaceMark& m, double half_mm) {
-  cairo_surface_t* src = f.rows[m.row].image.get();
-  const int w = cairo_image_surface_get_width(src), h = cairo_image_surface_get_height(src);
-  const int half = std::max(8, static_cast<int>(std::lround(half_mm * f.px_per_mm)));
-  int x0 = std::max(0, static_cast<int>(std::lround(m.x_px)) - half);
-  int x1 = std::min(w, x0 + 2 * half);
-  x0 = std::max(0, x1 - 2 * half);
-  SurfacePtr out = new_raster(std::max(1, x1 - x0), h);
+SurfacePtr crop_around(cairo_surface_t* strip, const StripLayout& L, double px_per_mm,
+                       const FaceMark& m, double half_mm) {
+  const double x = L.x0 + m.x_px * L.scale, y = L.row_y[m.row] + m.y_px * L.scale;
+  const int half = std::max(8, static_cast<int>(std::lround(half_mm * px_per_mm)));
+  const int lo = L.x0, hi = L.x0 + L.length_px;
+  int x0 = std::max(lo, static_cast<int>(std::lround(x)) - half);
+  const int x1 = std::min(hi, x0 + 2 * half);
+  x0 = std::max(lo, x1 - 2 * half);
+  const int y0 = std::max(0, L.row_y.front() - 2);
+  const int y1 = std::min(L.height, L.row_y.back() + L.row_h.back() + 2);
+  SurfacePtr out = new_raster(std::max(1, x1 - x0), std::max(1, y1 - y0));
   ContextPtr ctx = new_context(out.get());
   cairo_t* cr = ctx.get();
-  cairo_set_source_surface(cr, src, -x0, 0);
+  cairo_set_source_surface(cr, strip, -x0, -y0);
   cairo_paint(cr);
-  ring(cr, m.x_px - x0, m.y_px, std::max(5.0, m.radius_px), m.dead, 2.0);
+  ring(cr, x - x0, y - y0, std::max(5.0, m.radius_px * L.scale), m.dead, 2.0);
   return out;
 }
 

@@ -53,7 +53,8 @@ std::vector<FaceMark> limiting_marks(const BoardFaces& faces, const LogModel& lo
 struct StripLayout {
   double scale = 1;
   int x0 = 0;
-  std::vector<int> row_y;
+  std::vector<int> row_y, row_h;  // top and height of each row
+  int length_px = 0;              // of the rows
   int width = 0, height = 0;
 };
 
@@ -64,8 +65,9 @@ SurfacePtr compose_faces(const BoardFaces& faces, double px_per_cm, double ui,
                          const std::vector<FaceMark>& marks, bool draw_marks,
                          StripLayout* layout = nullptr);
 
-// A crop of the mark's face row around it, `half_mm` either side along the board (clipped to the
-// board), at the rendered resolution, with the ring drawn.
-SurfacePtr crop_around(const BoardFaces& faces, const FaceMark& mark, double half_mm);
+// A crop of a composed strip (compose_faces, `layout`) around a mark: all four faces over
+// `half_mm` either side of it along the board (clipped to the board), with its ring drawn.
+SurfacePtr crop_around(cairo_surface_t* strip, const StripLayout& layout, double px_per_mm,
+                       const FaceMark& mark, double half_mm);
 
 }  // namespace sawyer::report

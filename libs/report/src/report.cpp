@@ -211,12 +211,17 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
                                    d.marks, false, &d.strip));
     std::snprintf(buf, sizeof buf, "board_%02zu_faces.jpg", i + 1);
     d.strip_file = buf;
-    // The PDF's crops: the knots with the largest excess over their limit, at most four.
+    // The PDF's crops: the knots with the largest excess over their limit, at most four, each
+    // with the board's four faces 10 cm either side of it.
     for (size_t m = 0; m < d.marks.size() && m < 4; ++m) {
-      const double half = std::max(70.0, 2.5 * d.marks[m].width_mm);
+      const double half = std::max(100.0, 2.5 * d.marks[m].width_mm);
       std::snprintf(buf, sizeof buf, "board_%02zu_knot_%d.png", i + 1, d.marks[m].knot_id);
       d.crops.push_back(
-          {buf, "", d.marks[m].text, crop_around(faces.value(), d.marks[m], half), {}});
+          {buf,
+           "",
+           d.marks[m].text,
+           crop_around(strips.back().get(), d.strip, faces.value().px_per_mm, d.marks[m], half),
+           {}});
     }
     c.details.push_back(std::move(d));
   }

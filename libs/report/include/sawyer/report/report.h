@@ -29,7 +29,7 @@ struct ReportOptions {
   // The faces as rendered: the HTML page's zoomable faces (JPEG) and the PDF's crops around the
   // knots that decide the grades; the PNG and PDF figures are scaled down from them. Lowered for
   // a board so long that its image would pass the renderer's 8192 px.
-  double board_detail_px_per_cm = 9.0;
+  double board_detail_px_per_cm = 8.0;
   int jpeg_quality = 85;     // of the detailed faces (1..100)
   int plot_width_px = 1200;  // value map and log profile plots
   int supersample = 1;       // per pixel side, for the wood images (1..4)
