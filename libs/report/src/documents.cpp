@@ -370,7 +370,9 @@ class PdfWriter {
     set_color(cr_, kMuted);
     y_ += wrap(
               "Each board's four long sides rendered from the log model: the wide faces (face +, "
-              "face −) and the edges, butt end on the left. Grey: wane (outside the log).",
+              "face −) and the edges, butt end on the left. Grey: wane (outside the log). "
+              "Ringed and numbered: the knots that decide the board's grade (red dead, green "
+              "sound), shown larger on the next page.",
               kMargin, y_ + 2, kContentW, 8, 10.5) +
           8;
     const SawingRecord& s = c_.run->sawing;
