@@ -660,3 +660,21 @@ TEST(Report, PdfShowsWhereTheGradesAreDecided) {
     if (std::regex_search(line, std::regex("^\\s*\\d+\\s+\\d+\\s+image"))) ++images;
   EXPECT_GE(images, 3 + rep["boards"].size() + crops) << out;
 }
+
+// The detail options out of range: one line naming the option's meaning, exit 1, no report.
+TEST(Report, BadDetailOptionsAreNamedAndNoReportIsLeft) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  for (const auto& [flag, words] :
+       {std::pair<std::string, std::string>{"--board-detail 40", "board detail resolution"},
+        {"--board-detail 0", "board detail resolution"},
+        {"--jpeg-quality 0", "JPEG quality"},
+        {"--jpeg-quality 101", "JPEG quality"}}) {
+    SCOPED_TRACE(flag);
+    std::string out;
+    EXPECT_EQ(test::run_sawyer("report -q " + flag + " " + test::quoted(dir.path()), &out), 1);
+    EXPECT_NE(out.find(words), std::string::npos) << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_FALSE(fs::exists(dir / "report"));
+  }
+}
