@@ -202,6 +202,8 @@
       });
     });
     window.addEventListener('hashchange', onHash);
+    // Again once the page's images are in: they move the board down the page.
+    window.addEventListener('load', onHash);
     document.addEventListener('keydown', function (e) {
       if (e.key === 'Escape' && viewers.some(function (v) { return v.full; })) closeFull();
     });
