@@ -90,12 +90,14 @@ std::vector<FaceMark> limiting_marks(const BoardFaces& f, const LogModel& log,
     const sawing::KnotOnSide& k = board.knots[l.index];
     if (k.knot < 0 || k.knot >= static_cast<int>(log.knots.size())) continue;
     const Vec3 p = log.knots[k.knot].axis_point(k.r_mm, log.stem);
-    // The face whose plane the crossing lies in.
+    // The row of the knot's side (rows are in Side's order), else the face whose plane the
+    // crossing lies in (near a corner).
     int best = -1;
     double best_d = 1e300, s = 0, t = 0;
+    const int own = static_cast<int>(l.side);
     for (size_t i = 0; i < f.rows.size(); ++i) {
       const render::PlaneRect& rc = f.rows[i].rect;
-      const double d = std::abs(dot(p - rc.origin, rc.normal()));
+      const double d = std::abs(dot(p - rc.origin, rc.normal())) - (int(i) == own ? 2.0 : 0.0);
       if (d < best_d) {
         best_d = d;
         best = static_cast<int>(i);

@@ -20,7 +20,7 @@ struct BoardFaces {
                              // is −rect.v (top row at rect.v's far edge)
     SurfacePtr image;        // the face, length × across at px_per_mm
   };
-  std::vector<Row> rows;  // face +, face −, edge +, edge −
+  std::vector<Row> rows;  // face +, face −, edge +, edge −: in sawing::Side's order
   double px_per_mm = 0;   // of the row images
   double length_mm = 0;
 };

@@ -21,8 +21,10 @@ struct BoardSet {
 };
 
 // Saws the log again at the chosen position with the pattern named in run.json (or the bundled
-// pattern whose name sawing.json gives) and checks the boards' names against sawing.json; if the
-// pattern cannot be found or the boards differ, takes the boards' places from sawing.json.
+// pattern whose name sawing.json gives) and checks the boards' names, widths and lengths against
+// sawing.json; a board that sawing.json lists cross-cut to value (shorter, within its sawn
+// length) is cut to that piece (sawing::cut_board: its knots and wane). If the pattern cannot be
+// found or the boards differ, takes the boards' places from sawing.json (without their knots).
 BoardSet place_boards(const RunFolder& run, const sawing::SawLog& log);
 
 // The cross-section at height z as the log lies on the saw (turned to the chosen position, seen
