@@ -73,6 +73,7 @@ class RenderCutView : public ::testing::Test {
   Image render(const std::vector<BoardBox>& boards, const CutViewOptions& o) {
     Result<Image> img = render_cut_view(*renderer_, boards, camera_, o);
     EXPECT_TRUE(img.ok()) << img.error().message();
+    // SAWYER_TEST_IMAGES=<folder>: keep every image rendered here (cut_1.png, ...) to look at.
     if (const char* d = std::getenv("SAWYER_TEST_IMAGES"); d && img.ok())
       (void)write_image(std::string(d) + "/cut_" + std::to_string(++saved_) + ".png", img.value());
     return img.ok() ? img.value() : Image{};
