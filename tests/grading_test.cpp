@@ -2,6 +2,7 @@
 // knots cross the board sides at known places and sizes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -308,4 +309,88 @@ TEST(Value, ABoardWithADeadKnotNearOneEndIsCrossCutAndWorthMore) {
   ASSERT_FALSE(tiny.ok());
   EXPECT_NE(tiny.error().message().find("lengths.step_mm: a step of 0.5"), std::string::npos)
       << tiny.error().message();
+}
+
+namespace {
+
+KnotOnSide knot_on(int id, Side side, double along_mm, double width_mm, bool dead) {
+  KnotOnSide k;
+  k.knot = id;
+  k.knot_id = id;
+  k.side = side;
+  k.along_mm = along_mm;
+  k.z_mm = 1000.0 + along_mm;
+  k.across_mm = 12.0;
+  k.diameter_mm = k.minor_mm = k.major_mm = k.width_mm = width_mm;
+  k.dead = dead;
+  return k;
+}
+
+}  // namespace
+
+// A hand-built 40 × 150 board, 3 m long, and rules whose limits the knots sit on either side of.
+TEST(Grading, LimitingKnotsAreTheKnotsThatBreakTheGradeAbove) {
+  const GradingRules rules = rules_from(R"({"format": "sawyer-grading/1", "min_knot_mm": 5,
+    "grades": [
+      {"name": "A", "face": {"sound_knot": {"mm": 25}, "dead_knot": {"mm": 10}},
+                    "edge": {"dead_knot": {"mm": 2}}},
+      {"name": "B", "face": {"sound_knot": {"mm": 40}, "dead_knot": {"mm": 30}}},
+      {"name": "C"}]})");
+  Board b;
+  b.name = "centre 1";
+  b.thickness_mm = 40;
+  b.width_mm = 150;
+  b.z_begin = 1000;
+  b.z_end = 4000;
+  b.knots = {knot_on(5, Side::kFacePlus, 500, 30, false),   // over A's 25 mm sound
+             knot_on(7, Side::kFaceMinus, 2410, 20, true),  // over A's 10 mm dead
+             knot_on(9, Side::kFacePlus, 1200, 12, false),  // within A
+             knot_on(11, Side::kEdgeMinus, 800, 4, true),   // under min_knot_mm: not graded
+             knot_on(13, Side::kEdgePlus, 1900, 6, true)};  // over A's 2 mm dead on edges
+  const BoardGrade g = grade_board(b, rules);
+  ASSERT_EQ(rules.grade_name(g.grade), "B");
+
+  const std::vector<LimitingKnot> lim = limiting_knots(b, rules, g.grade);
+  ASSERT_EQ(lim.size(), 3u);
+  // Largest excess first: 20 − 10, 30 − 25, 6 − 2.
+  EXPECT_EQ(lim[0].knot_id, 7);
+  EXPECT_EQ(lim[1].knot_id, 5);
+  EXPECT_EQ(lim[2].knot_id, 13);
+  EXPECT_EQ(lim[0].index, 1);
+  EXPECT_TRUE(lim[0].dead);
+  EXPECT_EQ(lim[0].rule, LimitKind::kDeadKnot);
+  EXPECT_EQ(lim[0].side, Side::kFaceMinus);
+  EXPECT_NEAR(lim[0].along_mm, 2410, 1e-9);
+  EXPECT_NEAR(lim[0].across_mm, 12, 1e-9);
+  EXPECT_NEAR(lim[0].allowed_mm, 10, 1e-9);
+  EXPECT_EQ(lim[1].rule, LimitKind::kSoundKnot);
+  EXPECT_NEAR(lim[1].allowed_mm, 25, 1e-9);
+  EXPECT_EQ(rules.grade_name(lim[0].grade), "A");
+  EXPECT_EQ(describe(lim[0], rules),
+            "knot 7, dead, 20 mm on face- at 2.41 m: over 10 mm allowed in A");
+  EXPECT_EQ(describe(lim[1], rules),
+            "knot 5, sound, 30 mm on face+ at 0.50 m: over 25 mm allowed in A");
+
+  // Without them the board makes the grade above; with any one of them back it does not.
+  Board clear = b;
+  clear.knots.clear();
+  for (size_t i = 0; i < b.knots.size(); ++i)
+    if (std::none_of(lim.begin(), lim.end(),
+                     [&](const LimitingKnot& l) { return l.index == int(i); }))
+      clear.knots.push_back(b.knots[i]);
+  EXPECT_EQ(rules.grade_name(grade_board(clear, rules).grade), "A");
+  for (const LimitingKnot& l : lim) {
+    Board one = clear;
+    one.knots.push_back(b.knots[l.index]);
+    EXPECT_EQ(rules.grade_name(grade_board(one, rules).grade), "B") << describe(l, rules);
+  }
+  // The best grade has nothing above it; a size that prints equal to its limit keeps a decimal.
+  EXPECT_TRUE(limiting_knots(clear, rules, 0).empty());
+  Board close = b;
+  close.knots = {knot_on(21, Side::kFacePlus, 100, 25.3, false)};
+  const std::vector<LimitingKnot> l2 =
+      limiting_knots(close, rules, grade_board(close, rules).grade);
+  ASSERT_EQ(l2.size(), 1u);
+  EXPECT_EQ(describe(l2[0], rules),
+            "knot 21, sound, 25.3 mm on face+ at 0.10 m: over 25.0 mm allowed in A");
 }

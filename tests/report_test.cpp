@@ -7,6 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -469,4 +471,210 @@ TEST(Report, ShowsTheOffcutsOfACrossCutBoard) {
   std::string out;
   EXPECT_EQ(test::run_sawyer("report -q " + test::quoted(dir.path()), &out), 1);
   EXPECT_NE(out.find("boards[0].offcuts_mm"), std::string::npos) << out;
+}
+
+namespace {
+
+// ReportOptions::board_detail_px_per_cm's default.
+constexpr double kDetailPxPerCm = 8.0;
+
+// A board of report.json with knots that decide its grade: its number (1-based), else 0.
+int board_with_limiting_knots(const Json& rep) {
+  for (size_t i = 0; i < rep["boards"].size(); ++i)
+    if (!rep["boards"][i]["limiting_knots"].empty()) return static_cast<int>(i) + 1;
+  return 0;
+}
+
+// Headless Chromium on `url` in a window of w x h: its DOM after the page's scripts ran, or a
+// screenshot written to `png`. (A DOM dump's viewport is the window less the browser's bars, a
+// screenshot's the whole window.)
+std::string chromium(const fs::path& profile, const std::string& url, int w, int h,
+                     const std::string& what) {
+  std::string out;
+  shell(
+      "timeout 120 chromium --headless --no-sandbox --disable-gpu --no-first-run "
+      "--user-data-dir=" +
+          test::quoted(profile) + " --window-size=" + std::to_string(w) + "," + std::to_string(h) +
+          " --force-device-scale-factor=1 --hide-scrollbars --virtual-time-budget=5000 " + what +
+          " " + test::quoted(url),
+      &out);
+  return out;
+}
+
+// data-view="left,top,scale,width,height" of board `board`'s viewer in a DOM dump.
+bool view_of(const std::string& dom, int board, double v[5]) {
+  std::smatch m;
+  const std::string num = "([-0-9.e]+)";
+  const std::regex re("<div class=\"zoom[^\"]*\" data-board=\"" + std::to_string(board) +
+                      "\"[^>]*data-view=\"" + num + "," + num + "," + num + "," + num + "," + num +
+                      "\"");
+  if (!std::regex_search(dom, m, re)) return false;
+  for (int i = 0; i < 5; ++i) v[i] = std::stod(m[i + 1]);
+  return true;
+}
+
+// Mean absolute difference (0..255, RGB) between the screenshot and the face image seen
+// through view (left, top, scale), over the screenshot's pixels in [x0, x1) × [y0, y1) that
+// map inside the image.
+double view_difference(const render::Image& shot, const render::Image& face, const double v[3],
+                       int x0, int x1, int y0, int y1, int* samples) {
+  double sum = 0;
+  int n = 0;
+  for (int y = y0; y < y1; y += 3)
+    for (int x = x0; x < x1; x += 3) {
+      const int u = static_cast<int>(std::floor((x + 0.5 - v[0]) / v[2]));
+      const int w = static_cast<int>(std::floor((y + 0.5 - v[1]) / v[2]));
+      if (u < 0 || w < 0 || u >= face.width || w >= face.height) continue;
+      for (int c = 0; c < 3; ++c)
+        sum += 255.0 * std::abs(shot.value(x, y, c) - face.value(u, w, c));
+      ++n;
+    }
+  *samples = n;
+  return n ? sum / (3.0 * n) : 1e9;
+}
+
+}  // namespace
+
+// The HTML page's board faces at full resolution with pan and zoom in the page: the hash opens a
+// board zoomed on a knot that decides its grade; Chromium's screenshot then shows the face image
+// pixel for pixel as the viewer says it placed it, unlike the whole-board view; the knot's ring
+// carries its description.
+TEST(Report, HtmlZoomShowsTheFacesAtFullResolutionAndNamesTheLimitingKnots) {
+  REQUIRE_TOOL("chromium");
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  const Json rep = Json::parse(read(dir / "report/report.json"));
+  const int board = board_with_limiting_knots(rep);
+  ASSERT_GT(board, 0) << "no board of gran1 has a limiting knot: " << rep["boards"].dump(1);
+  const Json& knot = rep["boards"][board - 1]["limiting_knots"][0];
+  const int knot_id = knot["knot"];
+  char name[64];
+  std::snprintf(name, sizeof name, "board_%02d_faces.jpg", board);
+  Result<render::Image> face = render::read_image(dir / "report/images" / name);
+  ASSERT_TRUE(face.ok()) << face.error().message();
+  // The detail resolution along the board (plus its label column), several times the PDF's.
+  const double length_mm = rep["boards"][board - 1]["length_mm"];
+  const double px_per_mm = kDetailPxPerCm / 10.0;
+  EXPECT_GT(face.value().width, px_per_mm * length_mm);
+  EXPECT_LT(face.value().width, px_per_mm * length_mm + 400);
+
+  const std::string html = read(dir / "report/report.html");
+  EXPECT_EQ(html.find("http://"), std::string::npos);
+  EXPECT_EQ(html.find("https://"), std::string::npos);
+  // The ring of the knot, with its description as the tooltip, and a link that opens it.
+  const std::string text = knot["text"];
+  EXPECT_NE(html.find("data-knot=\"" + std::to_string(knot_id) + "\""), std::string::npos);
+  EXPECT_NE(html.find("<title>" + text + "</title>"), std::string::npos) << text;
+  EXPECT_NE(html.find("href=\"#board=" + std::to_string(board) +
+                      "&amp;zoom=6&amp;knot=" + std::to_string(knot_id) + "\""),
+            std::string::npos);
+
+  const std::string page = "file://" + (dir / "report/report.html").string();
+  const std::string fit = page + "#board=" + std::to_string(board) + "&zoom=1";
+  const std::string zoomed =
+      page + "#board=" + std::to_string(board) + "&zoom=6&knot=" + std::to_string(knot_id);
+  double vzoom[5];
+  const std::string dom_zoom = chromium(dir / "profile", zoomed, 1200, 800, "--dump-dom");
+  ASSERT_TRUE(view_of(dom_zoom, board, vzoom)) << dom_zoom.substr(0, 600);
+  // The screenshots in a window of the viewport the view was laid out in.
+  const int vw = static_cast<int>(vzoom[3]), vh = static_cast<int>(vzoom[4]);
+  ASSERT_GT(vh, 200);
+  EXPECT_GE(vzoom[2], 1.0);  // image pixels at least screen pixels: full detail
+  // The knot in the middle of the window (or as near as the board's edge allows).
+  const double kx = (0.5 * vw - vzoom[0]) / vzoom[2];
+  EXPECT_NEAR(kx, knot["along_mm"].get<double>() * px_per_mm + 84 * kDetailPxPerCm / 3, 700);
+
+  chromium(dir / "profile", fit, vw, vh, "--screenshot=" + test::quoted(dir / "fit.png"));
+  chromium(dir / "profile", zoomed, vw, vh, "--screenshot=" + test::quoted(dir / "zoom.png"));
+  Result<render::Image> shot_fit = render::read_image(dir / "fit.png");
+  Result<render::Image> shot_zoom = render::read_image(dir / "zoom.png");
+  ASSERT_TRUE(shot_fit.ok()) << shot_fit.error().message();
+  ASSERT_TRUE(shot_zoom.ok()) << shot_zoom.error().message();
+  const render::Image& a = shot_fit.value();
+  const render::Image& b = shot_zoom.value();
+  ASSERT_EQ(a.width, vw);
+  ASSERT_EQ(a.height, vh);
+  ASSERT_EQ(b.width, vw);
+  ASSERT_EQ(b.height, vh);
+  // The zoom changes what is shown: most of the window differs.
+  int differ = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) {
+      double d = 0;
+      for (int c = 0; c < 3; ++c) d += std::abs(a.value(x, y, c) - b.value(x, y, c));
+      differ += d > 0.1;
+    }
+  EXPECT_GT(differ, a.width * a.height / 3);
+  // What the zoomed window shows is the face image where the viewer placed it (JPEG and
+  // resampling aside), and not what another placement would show.
+  int n = 0, n_other = 0;
+  const double here = view_difference(b, face.value(), vzoom, 0, b.width, 60, b.height, &n);
+  const double other_view[3] = {vzoom[0] + 97, vzoom[1] + 31, vzoom[2]};  // shifted
+  const double other =
+      view_difference(b, face.value(), other_view, 0, b.width, 60, b.height, &n_other);
+  EXPECT_GT(n, 20000);
+  EXPECT_LT(here, 10.0);
+  EXPECT_GT(other, 2 * here);
+  std::printf("zoomed view against the face image: %.2f levels (shifted: %.2f) over %d pixels\n",
+              here, other, n);
+}
+
+// The PDF's page of decisions: a crop of the faces around each of the (at most four) largest
+// limiting knots of each board, captioned with the knot's description.
+TEST(Report, PdfShowsWhereTheGradesAreDecided) {
+  REQUIRE_TOOL("pdftotext");
+  REQUIRE_TOOL("pdfimages");
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  const Json rep = Json::parse(read(dir / "report/report.json"));
+  ASSERT_GT(board_with_limiting_knots(rep), 0);
+  const fs::path pdf = dir / "report/report.pdf";
+  std::string out;
+  ASSERT_EQ(shell("pdftotext -raw " + test::quoted(pdf) + " -", &out), 0);
+  auto squeeze = [](std::string s) {
+    s.erase(std::remove_if(s.begin(), s.end(), [](unsigned char ch) { return std::isspace(ch); }),
+            s.end());
+    return s;
+  };
+  const std::string text = squeeze(out);
+  EXPECT_NE(text.find(squeeze("Where the grades are decided")), std::string::npos);
+  size_t crops = 0;
+  for (const Json& b : rep["boards"]) {
+    const Json& lim = b["limiting_knots"];
+    for (size_t k = 0; k < lim.size() && k < 4; ++k) {
+      EXPECT_NE(text.find(squeeze(lim[k]["text"])), std::string::npos) << lim[k]["text"];
+      ++crops;
+    }
+  }
+  // Their images: one file each, and in the PDF beside the other figures.
+  size_t crop_files = 0;
+  for (const Json& img : rep["images"])
+    crop_files += img.get<std::string>().find("_knot_") != std::string::npos;
+  EXPECT_EQ(crop_files, crops);
+  ASSERT_EQ(shell("pdfimages -list " + test::quoted(pdf), &out), 0);
+  size_t images = 0;
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);)
+    if (std::regex_search(line, std::regex("^\\s*\\d+\\s+\\d+\\s+image"))) ++images;
+  EXPECT_GE(images, 3 + rep["boards"].size() + crops) << out;
+}
+
+// The detail options out of range: one line naming the option's meaning, exit 1, no report.
+TEST(Report, BadDetailOptionsAreNamedAndNoReportIsLeft) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  for (const auto& [flag, words] :
+       {std::pair<std::string, std::string>{"--board-detail 40", "board detail resolution"},
+        {"--board-detail 0", "board detail resolution"},
+        {"--jpeg-quality 0", "JPEG quality"},
+        {"--jpeg-quality 101", "JPEG quality"}}) {
+    SCOPED_TRACE(flag);
+    std::string out;
+    EXPECT_EQ(test::run_sawyer("report -q " + flag + " " + test::quoted(dir.path()), &out), 1);
+    EXPECT_NE(out.find(words), std::string::npos) << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_FALSE(fs::exists(dir / "report"));
+  }
 }

@@ -72,6 +72,13 @@ void add_report_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--board-px-per-cm", c->options.board_px_per_cm,
                   "resolution of the board face images")
       ->capture_default_str();
+  cmd->add_option("--board-detail", c->options.board_detail_px_per_cm,
+                  "resolution of the board faces rendered for the HTML page's zoom and the "
+                  "PDF's crops around the knots that decide the grades (px/cm)")
+      ->capture_default_str();
+  cmd->add_option("--jpeg-quality", c->options.jpeg_quality,
+                  "JPEG quality of the HTML page's board faces (1..100)")
+      ->capture_default_str();
   cmd->add_option("--supersample", c->options.supersample,
                   "samples per pixel side for the board faces (1..4)")
       ->capture_default_str();

@@ -135,7 +135,7 @@ Status MeshPainter::init() {
 }
 
 void MeshPainter::draw(const GpuMesh& mesh, const Camera& camera, const Viewport& vp,
-                       double clip_z0) const {
+                       double clip_z0, const MeshStyle& style) const {
   if (mesh.count() == 0) return;
   glUseProgram(program_.id());
   const render::Mat4 m = camera.view_projection(vp.aspect());
@@ -147,15 +147,30 @@ void MeshPainter::draw(const GpuMesh& mesh, const Camera& camera, const Viewport
               static_cast<float>(l.z));
   glUniform1i(program_.uniform("u_lit"), mesh.lines() ? 0 : 1);
   glUniform1f(program_.uniform("u_clip_z0"), static_cast<float>(std::max(clip_z0, -1e30)));
+  const Vec3 eye = camera.eye();
+  glUniform3f(program_.uniform("u_eye"), static_cast<float>(eye.x), static_cast<float>(eye.y),
+              static_cast<float>(eye.z));
+  glUniform1f(program_.uniform("u_alpha"), style.alpha);
+  glUniform1f(program_.uniform("u_rim"), style.rim);
+  glUniform1f(program_.uniform("u_specular"), style.specular);
+  const bool translucent = style.alpha < 1.0f || style.rim > 0.0f;
   glViewport(vp.x, vp.y, vp.width, vp.height);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
-  glDepthMask(GL_TRUE);
+  glDepthMask(translucent ? GL_FALSE : GL_TRUE);
   glDisable(GL_CULL_FACE);
-  glDisable(GL_BLEND);
+  if (translucent) {
+    glEnable(GL_BLEND);
+    // Colour blended over what is there; the target's alpha kept opaque where it was.
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  } else {
+    glDisable(GL_BLEND);
+  }
   glBindVertexArray(mesh.vao());
   glDrawArrays(mesh.lines() ? GL_LINES : GL_TRIANGLES, 0, mesh.count());
   glBindVertexArray(0);
+  glDisable(GL_BLEND);
+  glDepthMask(GL_TRUE);
   glUseProgram(0);
 }
 

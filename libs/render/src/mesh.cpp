@@ -154,6 +154,97 @@ Mesh log_surface(const Stem& stem, const Rgb& color, int angles, double step_mm)
   return mesh;
 }
 
+namespace {
+
+// Bark thickness at height z: Stem::bark_mm linear between samples, clamped at the ends.
+double bark_at(const Stem& stem, double z, double default_mm) {
+  const int n = static_cast<int>(stem.bark_mm.size());
+  if (n == 0 || n != stem.slice_count()) return default_mm;
+  const double f = std::clamp((z - stem.z0_mm) / stem.dz_mm, 0.0, n - 1.0);
+  const int i = std::min(n - 2, static_cast<int>(f));
+  if (n == 1) return stem.bark_mm[0];
+  const double t = f - i;
+  return std::max(0.0, (1 - t) * stem.bark_mm[i] + t * stem.bark_mm[i + 1]);
+}
+
+}  // namespace
+
+Mesh bark_surface(const Stem& stem, double default_bark_mm, const Rgb& color, int angles,
+                  double step_mm) {
+  Mesh mesh;
+  if (stem.slice_count() == 0) return mesh;
+  angles = std::max(3, angles);
+  const double z0 = stem.z_begin(), z1 = stem.z_end();
+  const int rows = std::max(2, static_cast<int>(std::ceil((z1 - z0) / std::max(step_mm, 0.1))) + 1);
+  // Outside of the bark and the wood's outline under it, per row and angle.
+  std::vector<Vec3> p(static_cast<size_t>(rows) * angles), w(p.size());
+  for (int i = 0; i < rows; ++i) {
+    const double z = z0 + (z1 - z0) * i / (rows - 1);
+    const Vec2 c = stem.pith_at(z);
+    const double bark = bark_at(stem, z, default_bark_mm);
+    for (int k = 0; k < angles; ++k) {
+      const double a = kTwoPi * k / angles, r = stem.radius_at(a, z);
+      const Vec2 d{std::cos(a), std::sin(a)};
+      p[static_cast<size_t>(i) * angles + k] = {c.x + (r + bark) * d.x, c.y + (r + bark) * d.y, z};
+      w[static_cast<size_t>(i) * angles + k] = {c.x + r * d.x, c.y + r * d.y, z};
+    }
+  }
+  auto at = [&](int i, int k) -> const Vec3& {
+    i = std::clamp(i, 0, rows - 1);
+    k = ((k % angles) + angles) % angles;
+    return p[static_cast<size_t>(i) * angles + k];
+  };
+  auto normal = [&](int i, int k) {
+    return cross(at(i, k + 1) - at(i, k - 1), at(i + 1, k) - at(i - 1, k)).normalized();
+  };
+  for (int i = 0; i + 1 < rows; ++i)
+    for (int k = 0; k < angles; ++k) {
+      const MeshVertex a = vertex(at(i, k), normal(i, k), color);
+      const MeshVertex b = vertex(at(i, k + 1), normal(i, k + 1), color);
+      const MeshVertex c = vertex(at(i + 1, k + 1), normal(i + 1, k + 1), color);
+      const MeshVertex d = vertex(at(i + 1, k), normal(i + 1, k), color);
+      mesh.vertices.insert(mesh.vertices.end(), {a, b, c, a, c, d});
+    }
+  // The bark's ring at each end, facing out along the log.
+  for (int e = 0; e < 2; ++e) {
+    const int i = e == 0 ? 0 : rows - 1;
+    const Vec3 n{0, 0, e == 0 ? -1.0 : 1.0};
+    for (int k = 0; k < angles; ++k) {
+      const int k1 = (k + 1) % angles;
+      const size_t a = static_cast<size_t>(i) * angles + k,
+                   b = static_cast<size_t>(i) * angles + k1;
+      mesh.vertices.insert(mesh.vertices.end(), {vertex(w[a], n, color), vertex(p[a], n, color),
+                                                 vertex(p[b], n, color), vertex(w[a], n, color),
+                                                 vertex(p[b], n, color), vertex(w[b], n, color)});
+    }
+  }
+  return mesh;
+}
+
+Mesh board_block(const BoardBox& b, const Rgb& color) {
+  Mesh mesh;
+  const Vec3 u = b.u(), v = b.v(), zc{0, 0, 1};
+  const Vec3 c{b.cx, b.cy, 0.5 * (b.z0 + b.z1)};
+  const double hu = 0.5 * b.width, hv = 0.5 * b.thickness, hz = 0.5 * (b.z1 - b.z0);
+  // Each face: its outward normal n and two in-plane half axes s, t with s × t = n.
+  struct FaceAxes {
+    Vec3 n, s, t;
+    double hn, hs, ht;
+  };
+  const FaceAxes faces[] = {{u, v, zc, hu, hv, hz}, {-1.0 * u, zc, v, hu, hz, hv},
+                            {v, zc, u, hv, hz, hu}, {-1.0 * v, u, zc, hv, hu, hz},
+                            {zc, u, v, hz, hu, hv}, {-1.0 * zc, v, u, hz, hv, hu}};
+  for (const FaceAxes& f : faces) {
+    const Vec3 o = c + f.hn * f.n;
+    const Vec3 a = o - f.hs * f.s - f.ht * f.t, bb = o + f.hs * f.s - f.ht * f.t;
+    const Vec3 cc = o + f.hs * f.s + f.ht * f.t, d = o - f.hs * f.s + f.ht * f.t;
+    mesh.vertices.insert(mesh.vertices.end(),
+                         {vertex(a, f.n, color), vertex(bb, f.n, color), vertex(cc, f.n, color),
+                          vertex(a, f.n, color), vertex(cc, f.n, color), vertex(d, f.n, color)});
+  }
+  return mesh;
+}
+
 Mesh pith_line(const Stem& stem, const Rgb& color) {
   Mesh mesh;
   mesh.lines = true;

@@ -4,8 +4,10 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <vector>
 
 namespace sawyer::report {
 
@@ -64,34 +66,65 @@ SurfacePtr to_surface(const render::Image& img) {
   return s;
 }
 
-// An 8-bit RGB PNG in memory through OpenImageIO, at zlib's fastest level: the PNGs are encoded
-// once for the files and reused in the HTML page, on the report's time budget.
-Result<std::string> encode_png(cairo_surface_t* s) {
+namespace {
+
+// The surface's pixels as packed 8-bit RGB, rows top to bottom.
+bool surface_rgb(cairo_surface_t* s, int* w, int* h, std::vector<unsigned char>* rgb) {
   cairo_surface_flush(s);
-  const int w = cairo_image_surface_get_width(s), h = cairo_image_surface_get_height(s);
+  *w = cairo_image_surface_get_width(s);
+  *h = cairo_image_surface_get_height(s);
   const int stride = cairo_image_surface_get_stride(s);
   const unsigned char* data = cairo_image_surface_get_data(s);
-  if (!data || w <= 0 || h <= 0) return Error("PNG", "not an image surface");
-  std::vector<unsigned char> rgb(3 * static_cast<size_t>(w) * h);
-  for (int y = 0; y < h; ++y) {
+  if (!data || *w <= 0 || *h <= 0) return false;
+  rgb->resize(3 * static_cast<size_t>(*w) * *h);
+  for (int y = 0; y < *h; ++y) {
     const auto* px = reinterpret_cast<const std::uint32_t*>(data + static_cast<size_t>(y) * stride);
-    unsigned char* out = rgb.data() + 3 * static_cast<size_t>(w) * y;
-    for (int x = 0; x < w; ++x) {  // cairo: native-endian xRGB
+    unsigned char* out = rgb->data() + 3 * static_cast<size_t>(*w) * y;
+    for (int x = 0; x < *w; ++x) {  // cairo: native-endian xRGB
       out[3 * x] = static_cast<unsigned char>(px[x] >> 16);
       out[3 * x + 1] = static_cast<unsigned char>(px[x] >> 8);
       out[3 * x + 2] = static_cast<unsigned char>(px[x]);
     }
   }
+  return true;
+}
+
+// Encodes RGB through OpenImageIO into memory; `name` picks the format by its extension.
+Result<std::string> encode(const char* what, const char* name,
+                           const std::vector<unsigned char>& rgb, const OIIO::ImageSpec& spec) {
   std::vector<unsigned char> file;
   OIIO::Filesystem::IOVecOutput vec(file);
-  auto out = OIIO::ImageOutput::create("report.png");
-  if (!out) return Error("PNG", "OpenImageIO has no PNG writer");
+  auto out = OIIO::ImageOutput::create(name);
+  if (!out) return Error(what, std::string("OpenImageIO has no ") + what + " writer");
+  if (!out->set_ioproxy(&vec) || !out->open(name, spec) ||
+      !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
+    return Error(what, "cannot encode: " + out->geterror());
+  return std::string(file.begin(), file.end());
+}
+
+}  // namespace
+
+// An 8-bit RGB PNG in memory through OpenImageIO, at zlib's fastest level: the PNGs are encoded
+// once for the files and reused in the HTML page, on the report's time budget.
+Result<std::string> encode_png(cairo_surface_t* s) {
+  int w = 0, h = 0;
+  std::vector<unsigned char> rgb;
+  if (!surface_rgb(s, &w, &h, &rgb)) return Error("PNG", "not an image surface");
   OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
   spec.attribute("png:compressionLevel", 1);
-  if (!out->set_ioproxy(&vec) || !out->open("report.png", spec) ||
-      !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
-    return Error("PNG", "cannot encode: " + out->geterror());
-  return std::string(file.begin(), file.end());
+  return encode("PNG", "report.png", rgb, spec);
+}
+
+// Baseline JPEG, 4:2:0 chroma: the board faces at full resolution for the HTML page.
+Result<std::string> encode_jpeg(cairo_surface_t* s, int quality) {
+  int w = 0, h = 0;
+  std::vector<unsigned char> rgb;
+  if (!surface_rgb(s, &w, &h, &rgb)) return Error("JPEG", "not an image surface");
+  OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+  quality = std::clamp(quality, 1, 100);
+  spec.attribute("Compression", "jpeg:" + std::to_string(quality));
+  spec.attribute("CompressionQuality", quality);
+  return encode("JPEG", "report.jpg", rgb, spec);
 }
 
 }  // namespace sawyer::report

@@ -50,5 +50,7 @@ ContextPtr new_context(cairo_surface_t* s);
 SurfacePtr to_surface(const render::Image& img);
 // PNG bytes of a raster surface.
 Result<std::string> encode_png(cairo_surface_t* s);
+// JPEG bytes of a raster surface at `quality` (1..100).
+Result<std::string> encode_jpeg(cairo_surface_t* s, int quality);
 
 }  // namespace sawyer::report

@@ -15,6 +15,20 @@ namespace {
 
 const std::string kNone = "—";
 
+// The HTML page's script and style (libs/report/web, embedded at build time).
+struct WebFile {
+  const char* name;
+  const char* text;
+};
+const WebFile kWebFiles[] = {
+#include "report_web.inc"
+};
+std::string web_file(const std::string& name) {
+  for (const WebFile& f : kWebFiles)
+    if (name == f.name) return f.text;
+  return "";
+}
+
 std::string fmt(const char* f, double v) {
   char buf[96];
   std::snprintf(buf, sizeof buf, f, v);
@@ -356,7 +370,9 @@ class PdfWriter {
     set_color(cr_, kMuted);
     y_ += wrap(
               "Each board's four long sides rendered from the log model: the wide faces (face +, "
-              "face −) and the edges, butt end on the left. Grey: wane (outside the log).",
+              "face −) and the edges, butt end on the left. Grey: wane (outside the log). "
+              "Ringed and numbered: the knots that decide the board's grade (red dead, green "
+              "sound), shown larger on the next page.",
               kMargin, y_ + 2, kContentW, 8, 10.5) +
           8;
     const SawingRecord& s = c_.run->sawing;
@@ -377,6 +393,66 @@ class PdfWriter {
                 kPageW - kMargin, y_ + 2, 1.0);
       y_ += 8;
       y_ += image(f.surface.get(), kMargin, y_, kContentW) + 14;
+    }
+  }
+
+  // "Where the grades are decided": per board, crops of its faces around the knots that keep it
+  // out of the grade above, each labelled with its description.
+  void page_decisions() {
+    const SawingRecord& s = c_.run->sawing;
+    bool any = false;
+    for (const BoardDetail& d : c_.details) any = any || !d.crops.empty();
+    new_page();
+    heading("Where the grades are decided");
+    set_color(cr_, kMuted);
+    y_ += wrap(any ? "For each board, its faces around the knots whose size keeps it out of the "
+                     "grade above (ringed: red dead, green sound), the largest excess first."
+                   : "No board's grade is decided by a knot's size.",
+               kMargin, y_ + 2, kContentW, 8, 10.5) +
+          8;
+    constexpr int kCols = 3;
+    const double gap = 12, cw = (kContentW - (kCols - 1) * gap) / kCols;
+    for (size_t i = 0; i < c_.details.size() && i < s.boards.size(); ++i) {
+      const BoardDetail& d = c_.details[i];
+      const BoardRecord& b = s.boards[i];
+      need(40);
+      set_font(cr_, 9, true);
+      set_color(cr_, kInk);
+      draw_text(cr_, std::to_string(i + 1) + "  " + b.name + "  ·  grade " + b.grade, kMargin,
+                y_ + 2);
+      y_ += 14;
+      if (d.crops.empty()) {
+        set_color(cr_, kMuted);
+        const std::string why = !d.note.empty() ? d.note : "limited by " + b.limited_by;
+        y_ += wrap("No knot decides it: " + why + ".", kMargin, y_, kContentW, 8, 10.5) + 6;
+        continue;
+      }
+      for (size_t k = 0; k < d.crops.size(); k += kCols) {
+        // One row of crops: as tall as the tallest, captions under each.
+        double row_h = 0;
+        for (size_t j = k; j < d.crops.size() && j < k + kCols; ++j) {
+          cairo_surface_t* img = d.crops[j].surface.get();
+          row_h = std::max(
+              row_h, cw * cairo_image_surface_get_height(img) / cairo_image_surface_get_width(img));
+        }
+        need(row_h + 40);
+        double caption_h = 0;
+        for (size_t j = k; j < d.crops.size() && j < k + kCols; ++j) {
+          const double x = kMargin + (j - k) * (cw + gap);
+          image(d.crops[j].surface.get(), x, y_, cw);
+          set_color(cr_, kInk);
+          caption_h =
+              std::max(caption_h, wrap(d.crops[j].caption, x, y_ + row_h + 10, cw, 7.5, 9.5));
+        }
+        y_ += row_h + 10 + caption_h + 8;
+      }
+      if (d.knots.size() > d.crops.size()) {
+        set_color(cr_, kMuted);
+        y_ += wrap(std::to_string(d.knots.size() - d.crops.size()) +
+                       " more knots over the limit (listed in report.json and the HTML page).",
+                   kMargin, y_, kContentW, 7.5, 9.5) +
+              6;
+      }
     }
   }
 
@@ -503,6 +579,48 @@ std::string html_figure(const Figure& f) {
          "</figcaption></figure>";
 }
 
+// A board's faces at full resolution in the pan-and-zoom viewer (web/board_zoom.js), its
+// limiting knots as rings with their descriptions, and the list of them with links that open
+// the board zoomed on each.
+std::string html_zoom(const BoardDetail& d, size_t board, const std::string& title) {
+  const StripLayout& L = d.strip;
+  std::ostringstream h;
+  h << "<div class=\"zoom\" data-board=\"" << board << "\" data-w=\"" << L.width << "\" data-h=\""
+    << L.height << "\"><div class=\"zoom-bar\">"
+    << "<button data-zoom=\"in\" title=\"zoom in\">+</button>"
+    << "<button data-zoom=\"out\" title=\"zoom out\">−</button>"
+    << "<button data-zoom=\"fit\" title=\"the whole board\">fit</button>"
+    << "<button data-zoom=\"full\" title=\"the whole window (Esc closes)\">⤢</button>"
+    << "<span class=\"zoom-level\">× 1.0</span><span>" << fmt("%.1f px/cm", d.detail_px_per_cm)
+    << "</span></div><div class=\"zoom-view\"><div class=\"zoom-layer\" style=\"width:" << L.width
+    << "px;height:" << L.height << "px\"><img alt=\"" << html_escape(title) << "\" width=\""
+    << L.width << "\" height=\"" << L.height << "\" src=\"data:image/jpeg;base64,"
+    << base64(d.strip_jpeg) << "\"><svg width=\"" << L.width << "\" height=\"" << L.height
+    << "\" viewBox=\"0 0 " << L.width << " " << L.height << "\">";
+  for (const FaceMark& m : d.marks) {
+    const double x = L.x0 + m.x_px * L.scale, y = L.row_y[m.row] + m.y_px * L.scale;
+    const double r = std::max(6.0, m.radius_px * L.scale);
+    char pos[160];
+    std::snprintf(pos, sizeof pos, "cx=\"%.1f\" cy=\"%.1f\" r=\"%.1f\"", x, y, r);
+    h << "<g class=\"knot " << (m.dead ? "dead" : "sound") << "\" data-knot=\"" << m.knot_id
+      << "\" data-x=\"" << fmt("%.1f", x) << "\" data-y=\"" << fmt("%.1f", y) << "\"><title>"
+      << html_escape(m.text) << "</title><circle class=\"halo\" " << pos << "/><circle " << pos
+      << "/><text x=\"" << fmt("%.1f", x) << "\" y=\"" << fmt("%.1f", y - r - 4) << "\">"
+      << m.knot_id << "</text></g>";
+  }
+  h << "</svg></div></div></div>";
+  if (!d.marks.empty()) {
+    h << "<ul class=\"limits\">";
+    for (const FaceMark& m : d.marks)
+      h << "<li><a href=\"#board=" << board << "&amp;zoom=6&amp;knot=" << m.knot_id << "\">"
+        << html_escape(m.text) << "</a></li>";
+    h << "</ul>";
+  } else if (!d.note.empty()) {
+    h << "<p class=\"limits\">No knot decides the grade: " << html_escape(d.note) << ".</p>";
+  }
+  return h.str();
+}
+
 }  // namespace
 
 const Figure* Content::figure(const std::string& file) const {
@@ -592,6 +710,7 @@ Status write_pdf(const Content& c, const std::filesystem::path& path, int* pages
     PdfWriter w(c, cr.get());
     w.page_one();
     w.page_two();
+    w.page_decisions();
     w.page_three();
     *pages = w.pages();
     if (cairo_status(cr.get()) != CAIRO_STATUS_SUCCESS)
@@ -635,7 +754,8 @@ std::string report_html(const Content& c) {
        ".endview .tiles{flex:1;min-width:280px}"
        ".board h3{font-size:15px;margin:18px 0 6px}.board h3 small{color:#6b7079;"
        "font-weight:normal;margin-left:12px}.board img{width:100%}"
-       "footer{color:#6b7079;font-size:12px;margin-top:30px}\n</style></head><body><main>\n";
+       "footer{color:#6b7079;font-size:12px;margin-top:30px}\n"
+    << web_file("board_zoom.css") << "</style></head><body><main>\n";
   h << "<h1>Cutting report <span>" << html_escape(r.log.id) << "</span></h1>\n"
     << "<div class=\"meta\">Run " << html_escape(or_none(r.run.date))
     << " · scan: " << html_escape(or_none(r.run.scan_description)) << " · Sawyer "
@@ -683,13 +803,20 @@ std::string report_html(const Content& c) {
   if (const Figure* f = c.figure("log_view.png")) h << html_figure(*f);
   h << "<h2>Board faces</h2><p class=\"meta\">Each board's four long sides rendered from the log "
        "model: the wide faces (face +, face −) and the edges, butt end on the left. Grey: wane "
-       "(outside the log).</p>\n";
+       "(outside the log). Wheel or + / − to zoom, drag to pan, ⤢ for the whole window; the "
+       "knots that decide a board's grade are ringed (red dead, green sound) and named on "
+       "hover.</p>\n";
   for (size_t i = 0; i < c.board_figures.size(); ++i) {
     const BoardRecord& b = s.boards[i];
-    h << "<div class=\"board\"><h3>" << i + 1 << " " << html_escape(b.name) << "<small>"
-      << board_size(b) << " mm · " << fmt("%.2f m", b.length_mm() * 1e-3) << " · grade "
-      << html_escape(b.grade) << " · " << html_escape(money(b.value, s.currency)) << "</small></h3>"
-      << html_img(c.board_figures[i]) << "</div>\n";
+    h << "<div class=\"board\" id=\"board-" << i + 1 << "\"><h3>" << i + 1 << " "
+      << html_escape(b.name) << "<small>" << board_size(b) << " mm · "
+      << fmt("%.2f m", b.length_mm() * 1e-3) << " · grade " << html_escape(b.grade) << " · "
+      << html_escape(money(b.value, s.currency)) << "</small></h3>";
+    if (i < c.details.size() && !c.details[i].strip_jpeg.empty())
+      h << html_zoom(c.details[i], i + 1, c.board_figures[i].title);
+    else
+      h << html_img(c.board_figures[i]);
+    h << "</div>\n";
   }
   h << "<h2>Positioning</h2>";
   if (const Figure* f = c.figure("value_map.png")) h << html_figure(*f);
@@ -697,7 +824,8 @@ std::string report_html(const Content& c) {
   if (const Figure* f = c.figure("log_profile.png")) h << html_figure(*f);
   h << "<footer>" << html_escape(c.boards.note)
     << ". Scan source: " << html_escape(or_none(r.run.scan_source))
-    << ".</footer>\n</main></body></html>\n";
+    << ".</footer>\n</main>\n<script>\n"
+    << web_file("board_zoom.js") << "</script>\n</body></html>\n";
   return h.str();
 }
 
@@ -767,7 +895,24 @@ std::string report_json(const Content& c, const ReportFiles& files) {
   j["gain_over_horns_up"] = gain(s, s.horns_up, s.gain_over_horns_up);
   j["gain_basis"] = s.chosen_given ? "value at the positions" : "expected values";
   Json boards = Json::array();
-  for (const BoardRecord& b : s.boards)
+  for (size_t i = 0; i < s.boards.size(); ++i) {
+    const BoardRecord& b = s.boards[i];
+    Json limiting = Json::array();
+    if (i < c.details.size())
+      for (size_t k = 0; k < c.details[i].knots.size(); ++k) {
+        const sawing::LimitingKnot& l = c.details[i].knots[k];
+        limiting.push_back({{"knot", l.knot_id},
+                            {"side", sawing::side_name(l.side)},
+                            {"z_mm", l.z_mm},
+                            {"along_mm", l.along_mm},
+                            {"across_mm", l.across_mm},
+                            {"width_mm", l.width_mm},
+                            {"dead", l.dead},
+                            {"rule", l.dead ? "dead knot" : "sound knot"},
+                            {"grade", c.details[i].grade_above},
+                            {"allowed_mm", l.allowed_mm},
+                            {"text", c.details[i].texts[k]}});
+      }
     boards.push_back({{"name", b.name},
                       {"thickness_mm", b.thickness_mm},
                       {"width_mm", b.width_mm},
@@ -780,7 +925,9 @@ std::string report_json(const Content& c, const ReportFiles& files) {
                       {"price_per_m3", b.price_per_m3},
                       {"value", b.value},
                       {"knots", b.knots},
-                      {"dead_knots", b.dead_knots}});
+                      {"dead_knots", b.dead_knots},
+                      {"limiting_knots", limiting}});
+  }
   j["boards"] = boards;
   j["totals"] = {{"boards", s.boards.size()},
                  {"volume_m3", c.boards_volume_m3},

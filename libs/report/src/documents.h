@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "board_detail.h"
 #include "canvas.h"
 #include "figures.h"
 #include "sawyer/model/log_summary.h"
@@ -22,6 +23,21 @@ struct Figure {
   std::string png;  // encoded
 };
 
+// One board in detail: the knots that decide its grade, its faces at the detail resolution for
+// the HTML page's zoom, and the PDF's crops around the knots.
+struct BoardDetail {
+  std::vector<sawing::LimitingKnot> knots;  // limiting_knots(), largest excess first
+  std::vector<std::string> texts;           // describe() of each
+  std::string grade_above;                  // the grade whose rules they break
+  std::vector<FaceMark> marks;              // those located on the faces
+  std::string note;                         // why no knots are listed, when none are
+  std::string strip_file;                   // under images/, e.g. "board_01_faces.jpg"
+  std::string strip_jpeg;                   // the faces at detail_px_per_cm, labelled
+  StripLayout strip;                        // where the rows lie in it
+  double detail_px_per_cm = 0;
+  std::vector<Figure> crops;  // around each mark, as marks (the PDF's page of decisions)
+};
+
 struct Content {
   const RunFolder* run = nullptr;
   LogSummary summary;
@@ -29,6 +45,8 @@ struct Content {
   double end_view_z = 0;
   std::vector<Figure> figures;        // end view, 3D view, value map (if any), profile
   std::vector<Figure> board_figures;  // one per board, as run->sawing.boards
+  std::vector<BoardDetail> details;   // one per board, as run->sawing.boards
+  std::string grading_note;           // why no board has its limiting knots, when none has
   double boards_volume_m3 = 0, boards_value = 0;
   double volume_yield() const {
     return summary.volume_m3 > 0 ? boards_volume_m3 / summary.volume_m3 : 0.0;

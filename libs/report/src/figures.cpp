@@ -6,9 +6,11 @@
 #include <cstdint>
 #include <cstdio>
 
+#include "sawyer/render/cut_view.h"
 #include "sawyer/render/framebuffer.h"
 #include "sawyer/render/views.h"
 #include "sawyer/sawing/setup.h"
+#include "sawyer/sawing/value.h"
 
 namespace sawyer::report {
 namespace {
@@ -209,11 +211,19 @@ BoardSet place_boards(const RunFolder& run, const SawLog& log) {
       continue;
     }
     sawing::SawResult sawn = sawing::saw(log, p.value(), s.chosen.pos);
+    // The same boards, each as sawn or cross-cut to value within its sawn length
+    // (trim_to_value): then the piece sold, with its own knots and wane.
     bool same = sawn.boards.size() == s.boards.size();
-    for (size_t i = 0; same && i < sawn.boards.size(); ++i)
-      same = sawn.boards[i].name == s.boards[i].name &&
-             std::abs(sawn.boards[i].z_begin - s.boards[i].z_begin_mm) < 0.5 &&
-             std::abs(sawn.boards[i].width_mm - s.boards[i].width_mm) < 0.5;
+    for (size_t i = 0; same && i < sawn.boards.size(); ++i) {
+      const sawing::Board& b = sawn.boards[i];
+      const BoardRecord& rec = s.boards[i];
+      same = b.name == rec.name && std::abs(b.width_mm - rec.width_mm) < 0.5 &&
+             rec.z_begin_mm > b.z_begin - 0.5 && rec.z_end_mm < b.z_end + 0.5 &&
+             rec.z_end_mm > rec.z_begin_mm;
+      if (same && (rec.z_begin_mm > b.z_begin + 0.5 || rec.z_end_mm < b.z_end - 0.5))
+        sawn.boards[i] = sawing::cut_board(b, std::max(rec.z_begin_mm, b.z_begin),
+                                           std::min(rec.z_end_mm, b.z_end));
+    }
     if (!same) return from_json("pattern '" + name + "' saws other boards than sawing.json lists");
     set.boards = std::move(sawn.boards);
     set.rebuilt = true;
@@ -319,145 +329,21 @@ Result<SurfacePtr> end_view(render::WoodRenderer& r, const RunFolder& run, const
   return surf;
 }
 
-namespace {
-
-// Every knot's axis from the pith to its end, projected with the view's camera and drawn as a
-// line as wide as the knot where the outer surface is cut away (z > surface_z1): green where
-// sound, red where dead. The lines are drawn over the boards (no depth test): an x-ray of where
-// the knots run, the boards' own faces show where they are cut.
-void draw_knot_axes(cairo_surface_t* s, const render::Mat4& vp, const LogModel& log,
-                    double surface_z1) {
-  const int w = cairo_image_surface_get_width(s), h = cairo_image_surface_get_height(s);
-  const auto to_px = [&](const Vec3& p) {
-    const Vec3 n = vp.transform_point(p);
-    return Vec2{(0.5 * n.x + 0.5) * w, (0.5 - 0.5 * n.y) * h};
-  };
-  ContextPtr cr = new_context(s);
-  cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
-  constexpr double kStepMm = 4.0;
-  for (const Knot& k : log.knots) {
-    Vec2 prev{};
-    bool have_prev = false;
-    for (double r = 0; r <= k.r_end + 1e-9; r += kStepMm) {
-      const double z = k.height_at(r);
-      if (z <= surface_z1 || z < log.stem.z_begin() || z > log.stem.z_end()) {
-        have_prev = false;
-        continue;
-      }
-      const Vec2 c = log.stem.pith_at(z);
-      const double az = k.azimuth_at(r);
-      const Vec3 p{c.x + r * std::cos(az), c.y + r * std::sin(az), z};
-      const Vec2 q = to_px(p);
-      if (have_prev) {
-        // Pixels per mm here: a knot diameter's worth of the image across the line.
-        const Vec2 q2 = to_px(p + Vec3{0, 0, k.diameter_at(r)});
-        const double px = std::hypot(q2.x - q.x, q2.y - q.y);
-        if (k.dead_at(r))
-          cairo_set_source_rgba(cr.get(), 0.80, 0.12, 0.10, 0.85);
-        else
-          cairo_set_source_rgba(cr.get(), 0.10, 0.55, 0.15, 0.85);
-        cairo_set_line_width(cr.get(), std::max(1.0, px));
-        cairo_move_to(cr.get(), prev.x, prev.y);
-        cairo_line_to(cr.get(), q.x, q.y);
-        cairo_stroke(cr.get());
-      }
-      prev = q;
-      have_prev = true;
-    }
-  }
-  cairo_surface_flush(s);
-}
-
-}  // namespace
-
 Result<SurfacePtr> log_view(render::WoodRenderer& r, const SawLog& log, const RunFolder& run,
                             const BoardSet& boards, int w, int h) {
-  render::Scene scene;
-  const Stem& st = run.log.stem;
-  scene.log_surface = true;
-  scene.surface_z1 = st.z_begin() + 0.5 * st.length_mm();
-  for (const Board& b : boards.boards) {
-    scene.boards.push_back(sawing::board_placement(log, b, run.sawing.chosen.pos));
-  }
-  // The default camera, brought in until the log spans about 90 % of the image's width.
-  render::Camera cam = render::default_log_camera(r);
-  const double aspect = static_cast<double>(w) / h;
-  const double tan_half_w = std::tan(0.5 * cam.fov_y) * aspect;
-  const double len = st.length_mm();
-  cam = render::Camera::orbit(r.pith_point(st.z_begin() + 0.5 * len), 0.62 * len / tan_half_w, 0.35,
-                              0.3);
-  cam.near_mm = std::max(1.0, 0.05 * len);
-  cam.far_mm = 4.0 * len;
-  render::FaceLayout layout;
-  layout.background[0] = layout.background[1] = layout.background[2] = 1.0f;
-  Result<render::Image> img = render::render_view(r, scene, cam, {w, h}, {}, layout);
+  std::vector<BoardBox> boxes;
+  for (const Board& b : boards.boards)
+    boxes.push_back(sawing::board_placement(log, b, run.sawing.chosen.pos));
+  render::CutViewOptions o;
+  o.width = w;
+  o.height = h;
+  // One sample a pixel: 2 × 2 triples the step's time (the boards' wood is shaded per sample)
+  // for edges that the page shows at about this size anyway.
+  o.supersample = 1;
+  const render::Camera cam = render::cut_view_camera(r, w, h, o.default_bark_mm);
+  Result<render::Image> img = render::render_cut_view(r, boxes, cam, o);
   if (!img) return img.error();
-  SurfacePtr surface = to_surface(img.value());
-  draw_knot_axes(surface.get(), cam.view_projection(static_cast<double>(w) / h), run.log,
-                 scene.surface_z1);
-  return crop_to_content(std::move(surface), 16);
-}
-
-Result<SurfacePtr> board_faces(render::WoodRenderer& r, const SawLog& log, const LogPosition& pos,
-                               const Board& b, double px_per_cm, int supersample) {
-  const BoardBox rb = sawing::board_placement(log, b, pos);
-  // BoardBox's top (+v) is the pattern's −u side for a board cut with its thickness along u
-  // (placement.cpp turns it 90°), the +v side otherwise; its right (+u) side is edge+ in both.
-  const bool thick_u = b.thickness_axis == sawing::ThicknessAxis::kU;
-  struct Row {
-    render::Face face;
-    const char* label;
-    double across_mm;
-  };
-  const Row rows[] = {{thick_u ? render::Face::kBottom : render::Face::kTop, "face +", b.width_mm},
-                      {thick_u ? render::Face::kTop : render::Face::kBottom, "face −", b.width_mm},
-                      {render::Face::kRight, "edge +", b.thickness_mm},
-                      {render::Face::kLeft, "edge −", b.thickness_mm}};
-  const double k = px_per_cm / 10.0;  // px per mm
-  const int len_px = std::max(16, static_cast<int>(std::lround(b.length_mm() * k)));
-  const int label_w = 84, pad = 6, gap = 6, scale_h = 30;
-  int total_h = pad;
-  for (const Row& row : rows) total_h += std::max(6, int(std::lround(row.across_mm * k))) + gap;
-  total_h += scale_h;
-  SurfacePtr surf = new_raster(label_w + len_px + 2 * pad, total_h);
-  ContextPtr ctx = new_context(surf.get());
-  cairo_t* cr = ctx.get();
-  render::FaceLayout layout;
-  layout.stretch = true;
-  layout.supersample = supersample;
-  // The wane (outside the log) stays a pale grey, so a face's missing corners show.
-  layout.background[0] = layout.background[1] = layout.background[2] = 0.90f;
-  int y = pad;
-  for (const Row& row : rows) {
-    const int hpx = std::max(6, int(std::lround(row.across_mm * k)));
-    Result<render::Image> img = render::render_board_faces(r, rb, static_cast<unsigned>(row.face),
-                                                           {len_px, hpx}, {}, layout);
-    if (!img) return img.error();
-    SurfacePtr face = to_surface(img.value());
-    cairo_set_source_surface(cr, face.get(), label_w, y);
-    cairo_paint(cr);
-    set_color(cr, kMuted);
-    cairo_set_line_width(cr, 1);
-    cairo_rectangle(cr, label_w - 0.5, y - 0.5, len_px + 1, hpx + 1);
-    cairo_stroke(cr);
-    const double fs = std::clamp(hpx + gap - 1.0, 10.0, 17.0);  // thin edges: smaller labels
-    set_font(cr, fs);
-    set_color(cr, kInk);
-    draw_text(cr, row.label, label_w - 8, y + hpx / 2.0 + 0.36 * fs, 1.0);
-    y += hpx + gap;
-  }
-  // Metres from the board's butt end (z_begin).
-  set_font(cr, 16);
-  cairo_set_line_width(cr, 1);
-  for (double t : ticks(0, b.length_mm() * 1e-3, 8)) {
-    const double x = label_w + t * 1e3 * k;
-    set_color(cr, kMuted);
-    cairo_move_to(cr, std::round(x) + 0.5, y - 2);
-    cairo_line_to(cr, std::round(x) + 0.5, y + 4);
-    cairo_stroke(cr);
-    draw_text(cr, fmt("%.1f m", t), x, y + 21, t == 0 ? 0.0 : 0.5);
-  }
-  return surf;
+  return crop_to_content(to_surface(img.value()), 16);
 }
 
 SurfacePtr value_map(const SawingRecord& s, int w) {

@@ -21,8 +21,10 @@ struct BoardSet {
 };
 
 // Saws the log again at the chosen position with the pattern named in run.json (or the bundled
-// pattern whose name sawing.json gives) and checks the boards' names against sawing.json; if the
-// pattern cannot be found or the boards differ, takes the boards' places from sawing.json.
+// pattern whose name sawing.json gives) and checks the boards' names, widths and lengths against
+// sawing.json; a board that sawing.json lists cross-cut to value (shorter, within its sawn
+// length) is cut to that piece (sawing::cut_board: its knots and wane). If the pattern cannot be
+// found or the boards differ, takes the boards' places from sawing.json (without their knots).
 BoardSet place_boards(const RunFolder& run, const sawing::SawLog& log);
 
 // The cross-section at height z as the log lies on the saw (turned to the chosen position, seen
@@ -31,16 +33,11 @@ BoardSet place_boards(const RunFolder& run, const sawing::SawLog& log);
 Result<SurfacePtr> end_view(render::WoodRenderer& r, const RunFolder& run,
                             const sawing::SawLog& log, const BoardSet& boards, double z, int px);
 
-// The log in 3D from the side: its outer surface over the butt half, the boards at the chosen
-// position sticking out of it.
+// The log in 3D (render::render_cut_view): the boards at the chosen position as wood blocks
+// inside the log drawn translucent over its bark, the knots as cones (green sound, red dead), seen
+// from above the top end; cropped to its content.
 Result<SurfacePtr> log_view(render::WoodRenderer& r, const sawing::SawLog& log,
                             const RunFolder& run, const BoardSet& boards, int w, int h);
-
-// A board's four long faces (face+, face−, edge+, edge−) rendered at `px_per_cm`, labelled, with
-// a length scale in metres from the board's butt end.
-Result<SurfacePtr> board_faces(render::WoodRenderer& r, const sawing::SawLog& log,
-                               const sawing::LogPosition& pos, const sawing::Board& board,
-                               double px_per_cm, int supersample);
 
 // The optimiser's expected value over rotation × x offset (at the chosen y offset), with the
 // chosen, best and horns-down positions marked and a colour bar in the currency. Empty surface

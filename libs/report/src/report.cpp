@@ -9,6 +9,8 @@
 #include "figures.h"
 #include "sawyer/core/file_util.h"
 #include "sawyer/render/gl_context.h"
+#include "sawyer/sawing/grading.h"
+#include "sawyer/sawing/setup.h"
 
 namespace sawyer::report {
 namespace {
@@ -63,6 +65,55 @@ double end_view_height(const RunFolder& run) {
   return z;
 }
 
+// The rule set sawing.json's grades come from: the one run.json names, else the bundled set
+// whose name sawing.json gives.
+Result<sawing::GradingRules> grading_rules(const RunFolder& run) {
+  std::vector<std::string> names;
+  if (!run.run.grading.empty())
+    names.push_back(run.run.grading);
+  else
+    names = {"nordic", "gost"};
+  std::string why = "grading rules '" + run.sawing.grading + "' not found";
+  for (const std::string& name : names) {
+    Result<sawing::GradingRules> g = sawing::grading_by_name(name);
+    if (!g) {
+      why = g.error().message();
+      continue;
+    }
+    if (g.value().name == run.sawing.grading) return g;
+    why =
+        "grading '" + name + "' is now '" + g.value().name + "', not '" + run.sawing.grading + "'";
+  }
+  return Error("limiting knots", why);
+}
+
+// The knots that decide a board's grade, when its knots are known and grading it again gives
+// the grade sawing.json records.
+BoardDetail board_detail(const RunFolder& run, const Result<sawing::GradingRules>& rules,
+                         const sawing::Board& board, const BoardRecord& rec,
+                         const BoardFaces& faces) {
+  BoardDetail d;
+  if (!rules) {
+    d.note = rules.error().message();
+    return d;
+  }
+  const sawing::GradingRules& g = rules.value();
+  const sawing::BoardGrade grade = sawing::grade_board(board, g);
+  if (g.grade_name(grade.grade) != rec.grade) {
+    d.note = "graded again: " + g.grade_name(grade.grade) + ", not " + rec.grade +
+             " as sawing.json says; no knots listed";
+    return d;
+  }
+  d.knots = sawing::limiting_knots(board, g, grade.grade);
+  if (grade.grade > 0) d.grade_above = g.grade_name(grade.grade - 1);
+  for (const sawing::LimitingKnot& k : d.knots) d.texts.push_back(sawing::describe(k, g));
+  d.marks = limiting_marks(faces, run.log, board, d.knots, g);
+  if (d.knots.empty())
+    d.note = grade.grade == 0 ? "the best grade"
+                              : "limited by " + rec.limited_by + ", not by a knot's size";
+  return d;
+}
+
 }  // namespace
 
 Status ReportOptions::validate() const {
@@ -70,6 +121,10 @@ Status ReportOptions::validate() const {
     if (v < 64 || v > 4096) return Error("report options", "image sizes must be 64..4096 px");
   if (!(board_px_per_cm >= 0.5 && board_px_per_cm <= 20))
     return Error("report options", "board resolution must be 0.5..20 px/cm");
+  if (!(board_detail_px_per_cm >= 0.5 && board_detail_px_per_cm <= 20))
+    return Error("report options", "board detail resolution must be 0.5..20 px/cm");
+  if (jpeg_quality < 1 || jpeg_quality > 100)
+    return Error("report options", "JPEG quality must be 1..100");
   if (supersample < 1 || supersample > 4)
     return Error("report options", "supersample must be 1..4");
   return Status::Ok();
@@ -80,7 +135,7 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
   if (Status st = options.validate(); !st) return st.error();
   const auto t_all = Clock::now();
   ReportFiles files;
-  Steps steps(8, progress, &files);
+  Steps steps(9, progress, &files);
   Content c;
   c.run = &run;
 
@@ -103,6 +158,10 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
   }
   const SawingRecord& s = run.sawing;
   char buf[512];
+  // The rule set the grades were given by, to find the knots that decide them.
+  Result<sawing::GradingRules> rules = grading_rules(run);
+  if (!rules) c.grading_note = rules.error().message();
+  std::vector<SurfacePtr> strips;  // the detailed faces, until encoded
 
   steps.begin("end view");
   c.end_view_z = end_view_height(run);
@@ -123,20 +182,48 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
   if (!lv) return lv.error();
   c.figures.push_back({"log_view.png",
                        "The log and its boards",
-                       "The log model rendered with its knotted wood: the outer surface over the "
-                       "butt half, the boards at the chosen position running through the whole "
-                       "length, and beyond the surface every knot drawn along its axis as wide "
-                       "as it is (green sound, red dead).",
+                       "The boards at the chosen position as solid blocks in their knotted "
+                       "wood, inside the log drawn as a translucent shell over its bark, seen "
+                       "from above the top end where they are cut; every knot a cone along its "
+                       "axis as wide as it is (green where sound, red where dead).",
                        std::move(lv).value(),
                        {}});
 
   steps.begin("board faces");
   for (size_t i = 0; i < c.boards.boards.size(); ++i) {
-    Result<SurfacePtr> bf = board_faces(r, saw_log, s.chosen.pos, c.boards.boards[i],
-                                        options.board_px_per_cm, options.supersample);
-    if (!bf) return bf.error();
+    const sawing::Board& board = c.boards.boards[i];
+    Result<BoardFaces> faces = render_faces(r, saw_log, s.chosen.pos, board,
+                                            options.board_detail_px_per_cm, options.supersample);
+    if (!faces) return faces.error();
+    BoardDetail d = c.boards.rebuilt ? board_detail(run, rules, board, s.boards[i], faces.value())
+                                     : BoardDetail{};
+    if (!c.boards.rebuilt) d.note = "the boards' knots are not known (" + c.boards.note + ")";
     std::snprintf(buf, sizeof buf, "board_%02zu.png", i + 1);
-    c.board_figures.push_back({buf, s.boards[i].name, s.boards[i].name, std::move(bf).value(), {}});
+    c.board_figures.push_back(
+        {buf,
+         s.boards[i].name,
+         s.boards[i].name,
+         compose_faces(faces.value(), options.board_px_per_cm, 1.0, d.marks, true),
+         {}});
+    // The detailed strip: text and lines in proportion, no rings (the HTML page draws them).
+    d.detail_px_per_cm = faces.value().px_per_mm * 10.0;
+    strips.push_back(compose_faces(faces.value(), d.detail_px_per_cm, d.detail_px_per_cm / 3.0,
+                                   d.marks, false, &d.strip));
+    std::snprintf(buf, sizeof buf, "board_%02zu_faces.jpg", i + 1);
+    d.strip_file = buf;
+    // The PDF's crops: the knots with the largest excess over their limit, at most four, each
+    // with the board's four faces 10 cm either side of it.
+    for (size_t m = 0; m < d.marks.size() && m < 4; ++m) {
+      const double half = std::max(100.0, 2.5 * d.marks[m].width_mm);
+      std::snprintf(buf, sizeof buf, "board_%02zu_knot_%d.png", i + 1, d.marks[m].knot_id);
+      d.crops.push_back(
+          {buf,
+           "",
+           d.marks[m].text,
+           crop_around(strips.back().get(), d.strip, faces.value().px_per_mm, d.marks[m], half),
+           {}});
+    }
+    c.details.push_back(std::move(d));
   }
 
   steps.begin("plots");
@@ -163,6 +250,20 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
       if (!png) return png.error().with_context(f.file);
       f.png = std::move(png).value();
     }
+  for (BoardDetail& d : c.details)
+    for (Figure& f : d.crops) {
+      Result<std::string> png = encode_png(f.surface.get());
+      if (!png) return png.error().with_context(f.file);
+      f.png = std::move(png).value();
+    }
+
+  steps.begin("jpeg");
+  for (size_t i = 0; i < c.details.size(); ++i) {
+    Result<std::string> jpg = encode_jpeg(strips[i].get(), options.jpeg_quality);
+    if (!jpg) return jpg.error().with_context(c.details[i].strip_file);
+    c.details[i].strip_jpeg = std::move(jpg).value();
+  }
+  strips.clear();
 
   steps.begin("documents");
   Status st = write_dir_atomic(report_dir, [&](const fs::path& tmp) -> Status {
@@ -173,6 +274,14 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
         if (Status w = write_bytes(tmp / "images" / f.file, f.png); !w) return w;
         files.images.push_back(report_dir / "images" / f.file);
       }
+    for (const BoardDetail& d : c.details) {
+      if (Status w = write_bytes(tmp / "images" / d.strip_file, d.strip_jpeg); !w) return w;
+      files.images.push_back(report_dir / "images" / d.strip_file);
+      for (const Figure& f : d.crops) {
+        if (Status w = write_bytes(tmp / "images" / f.file, f.png); !w) return w;
+        files.images.push_back(report_dir / "images" / f.file);
+      }
+    }
     if (Status w = write_pdf(c, tmp / "report.pdf", &files.pages); !w) return w;
     if (Status w = write_bytes(tmp / "report.html", report_html(c)); !w) return w;
     if (Status w = write_bytes(tmp / "boards.csv", boards_csv(c)); !w) return w;

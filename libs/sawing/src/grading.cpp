@@ -223,6 +223,50 @@ int piece_grade(const Board& board, double z0, double z1, const std::array<SideW
   return grade_input(in, board.knots, rules).grade;
 }
 
+std::vector<LimitingKnot> limiting_knots(const Board& board, const GradingRules& rules, int grade) {
+  std::vector<LimitingKnot> out;
+  if (grade <= 0 || grade > rules.reject()) return out;
+  const int above = grade - 1;
+  const GradeRule& rule = rules.grades[above];
+  for (size_t i = 0; i < board.knots.size(); ++i) {
+    const KnotOnSide& k = board.knots[i];
+    if (k.width_mm < rules.min_knot_mm) continue;  // not graded (count_knot)
+    const bool face = is_face(k.side);
+    const SideRules& r = face ? rule.face : rule.edge;
+    const double side_width = face ? board.width_mm : board.thickness_mm;
+    const double allowed =
+        k.dead ? r.dead_knot.allowed(side_width) : r.sound_knot.allowed(side_width);
+    if (!(k.width_mm > allowed)) continue;
+    LimitingKnot l;
+    l.index = static_cast<int>(i);
+    l.knot_id = k.knot_id;
+    l.side = k.side;
+    l.z_mm = k.z_mm;
+    l.along_mm = k.along_mm;
+    l.across_mm = k.across_mm;
+    l.width_mm = k.width_mm;
+    l.dead = k.dead;
+    l.grade = above;
+    l.rule = k.dead ? LimitKind::kDeadKnot : LimitKind::kSoundKnot;
+    l.allowed_mm = allowed;
+    out.push_back(l);
+  }
+  std::stable_sort(out.begin(), out.end(), [](const LimitingKnot& a, const LimitingKnot& b) {
+    return a.width_mm - a.allowed_mm > b.width_mm - b.allowed_mm;
+  });
+  return out;
+}
+
+std::string describe(const LimitingKnot& k, const GradingRules& rules) {
+  // Whole millimetres unless they would print the size no larger than the limit.
+  const int digits = std::lround(k.width_mm) > std::lround(k.allowed_mm) ? 0 : 1;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "knot %d, %s, %.*f mm on %s at %.2f m: over %.*f mm allowed in %s",
+                k.knot_id, k.dead ? "dead" : "sound", digits, k.width_mm, side_name(k.side),
+                k.along_mm * 1e-3, digits, k.allowed_mm, rules.grade_name(k.grade).c_str());
+  return buf;
+}
+
 std::string describe(const GradeLimit& l, const GradingRules& rules) {
   if (l.kind == LimitKind::kNone) return "none";
   const std::string grade = rules.grade_name(l.grade);

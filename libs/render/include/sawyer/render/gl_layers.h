@@ -77,6 +77,15 @@ class GpuMesh {
   bool lines_ = false;
 };
 
+// How a mesh is drawn. The default is opaque, diffuse-lit (the viewer's knot tubes). A
+// translucent style (alpha < 1 or rim > 0) is blended over what is drawn (src-alpha over) with the
+// depth test on and depth writes off, so draw it after the opaque meshes.
+struct MeshStyle {
+  float alpha = 1.0f;     // opacity where the surface faces the camera
+  float rim = 0.0f;       // added opacity towards the silhouette: alpha + rim·(1 − |n·view|)²
+  float specular = 0.0f;  // strength of a highlight from the light (0: none)
+};
+
 // Draws GpuMeshes with depth test, lit by a light that moves with the camera.
 class MeshPainter {
  public:
@@ -85,7 +94,7 @@ class MeshPainter {
   // Lines are one pixel wide (core profiles refuse wider ones). Nothing below `clip_z0` (mm
   // along the log) is drawn.
   void draw(const GpuMesh& mesh, const Camera& camera, const Viewport& viewport,
-            double clip_z0 = -1e30) const;
+            double clip_z0 = -1e30, const MeshStyle& style = {}) const;
 
  private:
   ShaderProgram program_;

@@ -5,6 +5,7 @@
 //   MeshOptions o;
 //   Mesh tubes = knot_tubes(log, o);   // sound part brown, dead part near black
 //   Mesh box = board_outline(board, {1, 1, 0.3f});
+//   Mesh shell = bark_surface(log.stem, 8.0, {0.46f, 0.35f, 0.29f});   // the report's cut view
 #pragma once
 
 #include <array>
@@ -48,6 +49,16 @@ Mesh board_outline(const BoardBox& board, const Rgb& color);
 // The outer surface under the bark as a light mesh: `angles` around (the stem's outline,
 // interpolated), a ring every `step_mm` along the log and at both ends, outward normals.
 Mesh log_surface(const Stem& stem, const Rgb& color, int angles = 120, double step_mm = 20.0);
+
+// The log's outer surface over its bark, for a translucent shell (the report's cut view): the
+// outline radius plus the bark thickness at each height (Stem::bark_mm, linear between samples;
+// `default_bark_mm` where the model has none), `angles` around, a ring every `step_mm`, outward
+// normals, and at each end the bark's ring between the wood and the bark's outside.
+Mesh bark_surface(const Stem& stem, double default_bark_mm, const Rgb& color, int angles = 120,
+                  double step_mm = 20.0);
+
+// A board's box as a closed solid: its six faces (two triangles each) with outward normals.
+Mesh board_block(const BoardBox& board, const Rgb& color);
 
 // The pith line from the first to the last stem sample, as lines.
 Mesh pith_line(const Stem& stem, const Rgb& color);

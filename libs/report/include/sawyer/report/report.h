@@ -23,15 +23,21 @@ namespace sawyer::report {
 
 struct ReportOptions {
   int end_view_px = 760;     // the cross-section with the boards, square
-  int view_width_px = 1200;  // the 3D view of the log and boards
-  int view_height_px = 520;
-  double board_px_per_cm = 3.0;  // board faces, along and across (millimetres kept square)
-  int plot_width_px = 1200;      // value map and log profile plots
-  int supersample = 1;           // per pixel side, for the wood images (1..4)
+  int view_width_px = 1200;  // the 3D view of the log and boards (the cut view, cropped)
+  int view_height_px = 600;
+  double board_px_per_cm = 3.0;  // board figures (PNG, PDF), along and across (mm kept square)
+  // The faces as rendered: the HTML page's zoomable faces (JPEG) and the PDF's crops around the
+  // knots that decide the grades; the PNG and PDF figures are scaled down from them. Lowered for
+  // a board so long that its image would pass the renderer's 8192 px.
+  double board_detail_px_per_cm = 8.0;
+  int jpeg_quality = 85;     // of the detailed faces (1..100)
+  int plot_width_px = 1200;  // value map and log profile plots
+  int supersample = 1;       // per pixel side, for the wood images (1..4)
   // Folder of the wood colour strips; empty: the renderer's default (docs/render.md).
   std::filesystem::path color_maps;
 
-  // Image sizes within 64..4096 px, board resolution 0.5..20 px/cm, supersample 1..4.
+  // Image sizes within 64..4096 px, board resolutions 0.5..20 px/cm, JPEG quality 1..100,
+  // supersample 1..4.
   Status validate() const;
 };
 

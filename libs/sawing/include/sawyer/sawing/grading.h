@@ -103,6 +103,30 @@ int piece_grade(const Board& board, double z0, double z1, const std::array<SideW
 // e.g. "dead knot 34 mm on face+ at 1.20 m > 25 mm allowed in A4"; "none" for kNone.
 std::string describe(const GradeLimit& limit, const GradingRules& rules);
 
+// A knot that decides a board's grade: one whose size breaks the knot-size rule of the grade
+// above the board's (the sound-knot rule for a sound knot, the dead-knot rule for a dead one), so
+// that the board would not reach that grade while the knot is there. Positions are those of the
+// board's KnotOnSide (mm).
+struct LimitingKnot {
+  int index = -1;   // into Board::knots
+  int knot_id = 0;  // the log model's knot id
+  Side side = Side::kFacePlus;
+  double z_mm = 0, along_mm = 0, across_mm = 0;
+  double width_mm = 0;  // across the side, as graded
+  bool dead = false;
+  int grade = -1;                     // the better grade whose rule it breaks
+  LimitKind rule = LimitKind::kNone;  // kSoundKnot or kDeadKnot
+  double allowed_mm = 0;              // that rule's limit on this side
+};
+
+// The knots of `board` that keep it out of grade `grade` − 1 by their size (`grade`: the board's
+// grade under `rules`, as grade_board() gives it; reject() for a rejected board), largest excess
+// over the limit first. Empty for the best grade, and when the grade above is kept out only by
+// counts or wane. Knots narrower than rules.min_knot_mm are not graded and never listed.
+std::vector<LimitingKnot> limiting_knots(const Board& board, const GradingRules& rules, int grade);
+// e.g. "knot 68, dead, 31 mm on face+ at 2.41 m: over 25 mm allowed in A".
+std::string describe(const LimitingKnot& knot, const GradingRules& rules);
+
 // The rule file, "sawyer-grading/1" (docs/sawing.md). Errors name the key; the file reader puts
 // the file name in front.
 Result<GradingRules> grading_from_json(const std::string& text);
