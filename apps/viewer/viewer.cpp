@@ -717,6 +717,7 @@ void Viewer::draw_3d(bool force, bool timing) {
                orbit_.pitch,
                orbit_.orthographic ? 1.0 : 0.0,
                moving ? motion_scale_ : 1.0,
+               moving ? 1.0 : 0.0,  // one sample while moving, the refined wood once still
                s.show_surface ? 1.0 : 0.0,
                s.cut_at_section ? 1.0 : 0.0,
                s.show_knots ? 1.0 : 0.0,
