@@ -10,32 +10,6 @@
 #include "sawyer/render/gl_layers.h"
 
 namespace sawyer::render {
-namespace {
-
-// The mean of each n x n block.
-Image box_downsample(const Image& big, int n) {
-  if (n == 1) return big;
-  Image out;
-  out.width = big.width / n;
-  out.height = big.height / n;
-  out.channels = big.channels;
-  out.u8.resize(static_cast<size_t>(out.width) * out.height * out.channels);
-  const int c = big.channels;
-  for (int y = 0; y < out.height; ++y)
-    for (int x = 0; x < out.width; ++x)
-      for (int k = 0; k < c; ++k) {
-        int sum = 0;
-        for (int dy = 0; dy < n; ++dy) {
-          const std::uint8_t* row = &big.u8[(static_cast<size_t>(y * n + dy) * big.width) * c];
-          for (int dx = 0; dx < n; ++dx) sum += row[(x * n + dx) * c + k];
-        }
-        out.u8[(static_cast<size_t>(y) * out.width + x) * c + k] =
-            static_cast<std::uint8_t>((sum + n * n / 2) / (n * n));
-      }
-  return out;
-}
-
-}  // namespace
 
 Status CutViewOptions::validate() const {
   if (width < 64 || width > 4096 || height < 64 || height > 4096)
@@ -153,7 +127,7 @@ Result<Image> render_cut_view(WoodRenderer& r, const std::vector<BoardBox>& boar
   style.rim = o.shell_rim;
   style.specular = o.shell_specular;
   painter.draw(shell, camera, vp, -1e30, style);
-  Image img = box_downsample(fb.value().read(), n);
+  Image img = downsample(fb.value().read(), n);
   return img;
 }
 

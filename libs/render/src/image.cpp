@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
 #include <exception>
 #include <string>
 
@@ -143,6 +144,28 @@ Result<Image> read_image(const fs::path& path, bool as_float) {
   } catch (const std::exception& e) {
     return Error(path.string(), std::string("cannot read the image (") + e.what() + ")");
   }
+}
+
+Image downsample(const Image& big, int n) {
+  if (n == 1) return big;
+  Image out;
+  out.width = big.width / n;
+  out.height = big.height / n;
+  out.channels = big.channels;
+  out.u8.resize(static_cast<size_t>(out.width) * out.height * out.channels);
+  const int c = big.channels;
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x)
+      for (int k = 0; k < c; ++k) {
+        int sum = 0;
+        for (int dy = 0; dy < n; ++dy) {
+          const std::uint8_t* row = &big.u8[(static_cast<size_t>(y * n + dy) * big.width) * c];
+          for (int dx = 0; dx < n; ++dx) sum += row[(x * n + dx) * c + k];
+        }
+        out.u8[(static_cast<size_t>(y) * out.width + x) * c + k] =
+            static_cast<std::uint8_t>((sum + n * n / 2) / (n * n));
+      }
+  return out;
 }
 
 }  // namespace sawyer::render

@@ -121,20 +121,11 @@ Mesh board_outline(const BoardBox& b, const Rgb& color) {
   return mesh;
 }
 
-Mesh log_surface(const Stem& stem, const Rgb& color, int angles, double step_mm) {
-  Mesh mesh;
-  angles = std::max(3, angles);
-  const double z0 = stem.z_begin(), z1 = stem.z_end();
-  const int rows = std::max(2, static_cast<int>(std::ceil((z1 - z0) / std::max(step_mm, 0.1))) + 1);
-  std::vector<Vec3> p(static_cast<size_t>(rows) * angles);
-  for (int i = 0; i < rows; ++i) {
-    const double z = z0 + (z1 - z0) * i / (rows - 1);
-    const Vec2 c = stem.pith_at(z);
-    for (int k = 0; k < angles; ++k) {
-      const double w = kTwoPi * k / angles, r = stem.radius_at(w, z);
-      p[static_cast<size_t>(i) * angles + k] = {c.x + r * std::cos(w), c.y + r * std::sin(w), z};
-    }
-  }
+namespace {
+
+// The triangles of a tube given as rows x angles points (row by row, closed around), each
+// vertex's normal from its neighbours along and around.
+void push_tube(const std::vector<Vec3>& p, int rows, int angles, const Rgb& color, Mesh& mesh) {
   auto at = [&](int i, int k) -> const Vec3& {
     i = std::clamp(i, 0, rows - 1);
     k = ((k % angles) + angles) % angles;
@@ -151,6 +142,25 @@ Mesh log_surface(const Stem& stem, const Rgb& color, int angles, double step_mm)
       const MeshVertex d = vertex(at(i + 1, k), normal(i + 1, k), color);
       mesh.vertices.insert(mesh.vertices.end(), {a, b, c, a, c, d});
     }
+}
+
+}  // namespace
+
+Mesh log_surface(const Stem& stem, const Rgb& color, int angles, double step_mm) {
+  Mesh mesh;
+  angles = std::max(3, angles);
+  const double z0 = stem.z_begin(), z1 = stem.z_end();
+  const int rows = std::max(2, static_cast<int>(std::ceil((z1 - z0) / std::max(step_mm, 0.1))) + 1);
+  std::vector<Vec3> p(static_cast<size_t>(rows) * angles);
+  for (int i = 0; i < rows; ++i) {
+    const double z = z0 + (z1 - z0) * i / (rows - 1);
+    const Vec2 c = stem.pith_at(z);
+    for (int k = 0; k < angles; ++k) {
+      const double w = kTwoPi * k / angles, r = stem.radius_at(w, z);
+      p[static_cast<size_t>(i) * angles + k] = {c.x + r * std::cos(w), c.y + r * std::sin(w), z};
+    }
+  }
+  push_tube(p, rows, angles, color, mesh);
   return mesh;
 }
 
@@ -189,22 +199,7 @@ Mesh bark_surface(const Stem& stem, double default_bark_mm, const Rgb& color, in
       w[static_cast<size_t>(i) * angles + k] = {c.x + r * d.x, c.y + r * d.y, z};
     }
   }
-  auto at = [&](int i, int k) -> const Vec3& {
-    i = std::clamp(i, 0, rows - 1);
-    k = ((k % angles) + angles) % angles;
-    return p[static_cast<size_t>(i) * angles + k];
-  };
-  auto normal = [&](int i, int k) {
-    return cross(at(i, k + 1) - at(i, k - 1), at(i + 1, k) - at(i - 1, k)).normalized();
-  };
-  for (int i = 0; i + 1 < rows; ++i)
-    for (int k = 0; k < angles; ++k) {
-      const MeshVertex a = vertex(at(i, k), normal(i, k), color);
-      const MeshVertex b = vertex(at(i, k + 1), normal(i, k + 1), color);
-      const MeshVertex c = vertex(at(i + 1, k + 1), normal(i + 1, k + 1), color);
-      const MeshVertex d = vertex(at(i + 1, k), normal(i + 1, k), color);
-      mesh.vertices.insert(mesh.vertices.end(), {a, b, c, a, c, d});
-    }
+  push_tube(p, rows, angles, color, mesh);
   // The bark's ring at each end, facing out along the log.
   for (int e = 0; e < 2; ++e) {
     const int i = e == 0 ? 0 : rows - 1;

@@ -28,29 +28,6 @@ Status check_size(int w, int h, const ShadeOptions& shade, const FaceLayout& lay
                           shade.mode == ShadeMode::kTimeField);
 }
 
-// Averages n x n blocks of an 8-bit image.
-Image downsample(const Image& big, int n) {
-  if (n == 1) return big;
-  Image out;
-  out.width = big.width / n;
-  out.height = big.height / n;
-  out.channels = big.channels;
-  out.u8.resize(static_cast<size_t>(out.width) * out.height * out.channels);
-  for (int y = 0; y < out.height; ++y)
-    for (int x = 0; x < out.width; ++x)
-      for (int c = 0; c < out.channels; ++c) {
-        int sum = 0;
-        for (int dy = 0; dy < n; ++dy)
-          for (int dx = 0; dx < n; ++dx)
-            sum +=
-                big.u8[(static_cast<size_t>(y * n + dy) * big.width + x * n + dx) * big.channels +
-                       c];
-        out.u8[(static_cast<size_t>(y) * out.width + x) * out.channels + c] =
-            static_cast<std::uint8_t>((sum + n * n / 2) / (n * n));
-      }
-  return out;
-}
-
 // Renders tiles (each a rectangle filling its viewport) into one image.
 Result<Image> render_tiles(WoodRenderer& r, const std::vector<Tile>& tiles, int w, int h,
                            const ShadeOptions& shade, const FaceLayout& layout) {

@@ -5,27 +5,12 @@
 #include <cmath>
 #include <cstdio>
 
+#include "figures.h"
 #include "sawyer/render/views.h"
 #include "sawyer/sawing/placement.h"
 
 namespace sawyer::report {
 namespace {
-
-// "Nice" tick positions covering [0, hi], about `n` of them.
-std::vector<double> length_ticks(double hi, int n) {
-  std::vector<double> out;
-  if (!(hi > 0)) return {0.0};
-  const double raw = hi / std::max(1, n);
-  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
-  double step = mag;
-  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
-    if (m * mag >= raw) {
-      step = m * mag;
-      break;
-    }
-  for (double t = 0; t <= hi + 1e-9 * step; t += step) out.push_back(t);
-  return out;
-}
 
 void ring(cairo_t* cr, double x, double y, double r, bool dead, double width) {
   cairo_new_sub_path(cr);
@@ -173,7 +158,7 @@ SurfacePtr compose_faces(const BoardFaces& f, double px_per_cm, double ui,
   // Metres from the board's butt end (z_begin).
   set_font(cr, 16 * ui);
   cairo_set_line_width(cr, std::max(1.0, ui));
-  for (double t : length_ticks(f.length_mm * 1e-3, 8)) {
+  for (double t : ticks(0.0, f.length_mm * 1e-3, 8)) {
     const double x = label_w + t * 1e3 * k;
     set_color(cr, kMuted);
     cairo_move_to(cr, std::round(x) + 0.5, y - 2 * ui);

@@ -32,23 +32,6 @@ void board_extent(const Board& b, double* su, double* sv) {
   *sv = thick_u ? b.width_mm : b.thickness_mm;
 }
 
-// "Nice" tick positions covering [lo, hi], about `n` of them.
-std::vector<double> ticks(double lo, double hi, int n) {
-  std::vector<double> out;
-  if (!(hi > lo)) return {lo};
-  const double raw = (hi - lo) / std::max(1, n);
-  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
-  double step = mag;
-  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
-    if (m * mag >= raw) {
-      step = m * mag;
-      break;
-    }
-  for (double t = std::ceil(lo / step - 1e-9) * step; t <= hi + 1e-9 * step; t += step)
-    out.push_back(std::abs(t) < 1e-9 * step ? 0.0 : t);
-  return out;
-}
-
 // A tick label with as many decimals as the tick step needs.
 std::string tick_label(double v, double lo, double hi) {
   const std::vector<double> t = ticks(lo, hi, 4);
@@ -181,6 +164,22 @@ SurfacePtr crop_to_content(SurfacePtr surface, int margin) {
 }
 
 }  // namespace
+
+std::vector<double> ticks(double lo, double hi, int n) {
+  std::vector<double> out;
+  if (!(hi > lo)) return {lo};
+  const double raw = (hi - lo) / std::max(1, n);
+  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
+  double step = mag;
+  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
+    if (m * mag >= raw) {
+      step = m * mag;
+      break;
+    }
+  for (double t = std::ceil(lo / step - 1e-9) * step; t <= hi + 1e-9 * step; t += step)
+    out.push_back(std::abs(t) < 1e-9 * step ? 0.0 : t);
+  return out;
+}
 
 BoardSet place_boards(const RunFolder& run, const SawLog& log) {
   const SawingRecord& s = run.sawing;

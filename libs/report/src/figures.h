@@ -27,6 +27,10 @@ struct BoardSet {
 // found or the boards differ, takes the boards' places from sawing.json (without their knots).
 BoardSet place_boards(const RunFolder& run, const sawing::SawLog& log);
 
+// "Nice" axis tick positions covering [lo, hi] (steps of 1, 2, 2.5 or 5 times a power of ten),
+// about `n` of them.
+std::vector<double> ticks(double lo, double hi, int n);
+
 // The cross-section at height z as the log lies on the saw (turned to the chosen position, seen
 // from the top end, the pattern frame's u to the right and v up), the boards outlined and
 // numbered, every knot's axis projected onto the section (sound part green, dead part red).

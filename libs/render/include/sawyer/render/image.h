@@ -30,6 +30,9 @@ Status write_image(const std::filesystem::path& path, const Image& image);
 // Reads an image as 8-bit or float RGBA (alpha 1 when the file has none); errors name the file.
 Result<Image> read_image(const std::filesystem::path& path, bool as_float = false);
 
+// The mean of each n x n block of an 8-bit image (supersampled framebuffers); n = 1 returns it.
+Image downsample(const Image& big, int n);
+
 // True when the extension names a format write_image knows.
 bool is_image_extension(const std::filesystem::path& path);
 
