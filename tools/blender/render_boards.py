@@ -6,10 +6,13 @@
 #          the face (tests/export_test.cpp does). The board must lie unrotated (rotation 0: its
 #          top face looks up, Sawyer's +y, Blender's +z).
 #   view:  all boards from above at an angle, lit by a sun and the sky (docs/images).
+#   end:   the same light, close to the boards' butt end, looking along them: the end grain and
+#          the first metre of their faces with its knots (docs/images).
 #
 #   blender -b --factory-startup --python-exit-code 1 --python tools/blender/render_boards.py -- \
 #       boards.glb out.png face "board 1" W H [samples]
 #   blender -b ... -- boards.glb out.png view W H [samples]
+#   blender -b ... -- boards.glb out.png end W H [samples]
 import math
 import sys
 
@@ -114,12 +117,21 @@ def main():
         lo, hi = bounds(boards)
         centre = (lo + hi) / 2
         size = (hi - lo).length
-        # From above and to the side of the butt end (Sawyer's z = 0 is Blender's y = 0, the
-        # boards run to -y): the top faces, one edge and the butt ends in view.
-        eye = centre + Vector((1.0, 0.45, 0.75)).normalized() * size * 1.5
-        direction = centre - eye
-        rot = direction.to_track_quat("-Z", "Y").to_euler()
-        camera(eye, rot, lens=50.0)
+        if mode == "end":
+            # Beyond the butt end (Blender's largest y), above and to the side, looking at a
+            # point about 0.6 m along the boards.
+            across = max(hi.x - lo.x, hi.z - lo.z)
+            target = Vector((centre.x, hi.y - 0.6, centre.z))
+            eye = Vector((centre.x + 2.2 * across, hi.y + 0.45, centre.z + 2.0 * across))
+            lens = 35.0
+        else:
+            # From above and to the side of the butt end (Sawyer's z = 0 is Blender's y = 0,
+            # the boards run to -y): the top faces, one edge and the butt ends in view.
+            target = centre
+            eye = centre + Vector((1.0, 0.45, 0.75)).normalized() * size * 1.5
+            lens = 50.0
+        rot = (target - eye).to_track_quat("-Z", "Y").to_euler()
+        camera(eye, rot, lens=lens)
     sc.render.filepath = out
     bpy.ops.render.render(write_still=True)
     print("render_boards: wrote %s (%d x %d, %d samples)" % (out, sc.render.resolution_x,
