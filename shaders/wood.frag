@@ -213,6 +213,11 @@ void main() {
   if (dot(sh.N, sh.V) < 0.0) sh.N = -sh.N;  // sections are seen from either side
   sh.dpdx = dpdx;
   sh.dpdy = dpdy;
+#ifdef WOOD_ONE_SAMPLE
+  // The program for one sample a pixel (WoodRenderer picks it when supersample is 1).
+  if (outside) discard;
+  out_color = vec4(wood_shade(s, v_pos, sh), 1.0);
+#else
   if (n == 1 || !wood_needs_samples(s, px_mm, t_rate_px, filter_rate_px)) {
     if (outside) discard;
     out_color = vec4(wood_shade(s, v_pos, sh), 1.0);
@@ -238,4 +243,5 @@ void main() {
   }
   if (inside == 0) discard;
   out_color = vec4(sum / float(inside), float(inside) / float(n * n));
+#endif
 }

@@ -179,7 +179,11 @@ struct WoodRenderer::Impl {
   RenderOptions options;
   std::unique_ptr<WoodField> field;
   GpuLogData data;
-  ShaderProgram program;
+  // The wood program, and the same compiled without the extra samples (WOOD_ONE_SAMPLE) for
+  // draws that take one sample a pixel: the viewer's moving frames, --supersample 1, the raw
+  // field. llvmpipe runs the smaller program faster even where the samples' branch is not taken.
+  ShaderProgram program, program_one;
+  GLuint current = 0;  // the one set_uniforms chose
   GLuint ssbo[6] = {};
   WoodLook look;
   StripStats strip;
@@ -271,7 +275,9 @@ void WoodRenderer::Impl::build_surface(bool with_bark) {
 
 void WoodRenderer::Impl::set_uniforms(const Camera& cam, const Viewport& vp,
                                       const ShadeOptions& s) {
-  const GLuint p = program.id();
+  const bool one = s.supersample <= 1 || s.mode == ShadeMode::kTimeField;
+  const GLuint p = one ? program_one.id() : program.id();
+  current = p;
   glUseProgram(p);
   auto loc = [&](const char* n) { return glGetUniformLocation(p, n); };
   const Mat4 vpm = cam.view_projection(vp.aspect());
@@ -356,7 +362,7 @@ void WoodRenderer::Impl::set_uniforms(const Camera& cam, const Viewport& vp,
 
 void WoodRenderer::Impl::draw_vertices(const std::vector<Vertex>& v, float surface_tol) {
   if (v.empty()) return;
-  glUniform1f(glGetUniformLocation(program.id(), "u_surface_tol"), surface_tol);
+  glUniform1f(glGetUniformLocation(current, "u_surface_tol"), surface_tol);
   glBindBuffer(GL_ARRAY_BUFFER, vbo);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(v.size() * sizeof(Vertex)), v.data(),
                GL_STREAM_DRAW);
@@ -396,11 +402,15 @@ Result<std::unique_ptr<WoodRenderer>> WoodRenderer::create(const LogModel& log,
     }
   }
 
-  Result<ShaderProgram> prog = ShaderProgram::build(
-      "wood.vert", "wood.frag",
-      options.knot_index ? std::vector<std::string>{"WOOD_INDEX 1"} : std::vector<std::string>{});
+  std::vector<std::string> defines;
+  if (options.knot_index) defines.push_back("WOOD_INDEX 1");
+  Result<ShaderProgram> prog = ShaderProgram::build("wood.vert", "wood.frag", defines);
   if (!prog) return prog.error();
   impl->program = std::move(prog).value();
+  defines.push_back("WOOD_ONE_SAMPLE 1");
+  Result<ShaderProgram> one = ShaderProgram::build("wood.vert", "wood.frag", defines);
+  if (!one) return one.error();
+  impl->program_one = std::move(one).value();
 
   impl->field = std::make_unique<WoodField>(log, options.field);
   GpuLayoutOptions lo;
@@ -506,11 +516,11 @@ void WoodRenderer::draw(const Scene& scene, const Camera& camera, const Viewport
       m.build_surface(with_bark);
       glBindVertexArray(m.vao);
     }
-    glUniform1f(glGetUniformLocation(m.program.id(), "u_surface_tol"), 0.03f);
-    glUniform1i(glGetUniformLocation(m.program.id(), "u_outline_samples"), 0);
-    glUniform1f(glGetUniformLocation(m.program.id(), "u_z_begin"),
+    glUniform1f(glGetUniformLocation(m.current, "u_surface_tol"), 0.03f);
+    glUniform1i(glGetUniformLocation(m.current, "u_outline_samples"), 0);
+    glUniform1f(glGetUniformLocation(m.current, "u_z_begin"),
                 static_cast<float>(std::max<double>(m.data.z_begin, scene.surface_z0)));
-    glUniform1f(glGetUniformLocation(m.program.id(), "u_z_end"),
+    glUniform1f(glGetUniformLocation(m.current, "u_z_end"),
                 static_cast<float>(std::min<double>(m.data.z_end, scene.surface_z1)));
     glBindBuffer(GL_ARRAY_BUFFER, m.surface_vbo);
     glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(Vertex), nullptr);
