@@ -134,7 +134,21 @@ TEST(KnotScan, ClearLogYieldsNoKnots) {
   ASSERT_TRUE(scanned.ok()) << scanned.error().message();
   EXPECT_EQ(scanned.value().knots.knots.size(), 0u);
   EXPECT_EQ(scanned.value().log.knots.size(), 0u);
-  EXPECT_GT(scanned.value().volume->bytes(), 0u) << "the stem pass kept the log's voxels";
+  EXPECT_GT(scanned.value().voxel_bytes, 0u) << "the stem pass kept the log's voxels";
+  EXPECT_EQ(scanned.value().volume, nullptr) << "and the scan released them after the knot pass";
+  ASSERT_EQ(scanned.value().unrolled.size(), 3u);
+  for (const UnrolledView& v : scanned.value().unrolled) {
+    EXPECT_EQ(v.grey.size(), static_cast<size_t>(v.width) * v.height);
+    int wood = 0;  // the unrolled cylinders are inside the log: wood, not air (0)
+    for (std::uint8_t g : v.grey) wood += g > 40;
+    EXPECT_GT(wood, static_cast<int>(v.grey.size()) / 2) << "r " << v.r_mm;
+  }
+  ScanOptions keep;
+  keep.keep_volume = true;
+  auto kept = scan_log(src, keep);
+  ASSERT_TRUE(kept.ok()) << kept.error().message();
+  ASSERT_NE(kept.value().volume, nullptr);
+  EXPECT_EQ(kept.value().volume->bytes(), kept.value().voxel_bytes);
 }
 
 }  // namespace

@@ -30,6 +30,12 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
     out.knots = std::move(knots.value());
     if (progress) progress("knots", 1, 1);
   }
+  // What the QA needs of the voxels, then the voxels go (the largest thing a scan holds: the
+  // log's cross-section on every slice at 16 bits).
+  out.voxel_bytes = out.volume->bytes();
+  for (double r : {30.0, 60.0, 90.0})
+    out.unrolled.push_back(unroll_view(*out.volume, out.stem.stem, r));
+  if (!options.keep_volume) out.volume.reset();
   out.qa =
       assess_scan(out.stem, options.find_knots ? &out.knots : nullptr, src.geometry(), options.qa);
 

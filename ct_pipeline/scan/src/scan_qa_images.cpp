@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 
@@ -114,37 +115,12 @@ cv::Mat pith_plot(const StemScan& scan, const ScanQaDetail& qa) {
   return img;
 }
 
-// The log's cylinder of pith distance r unrolled: azimuth 0..2π left to right, height down the
-// image, both at the same scale (2 px/mm for a short scan, down to 0.5 px/mm for a long one, so
-// knots keep their shape), HU windowed -700..+200 so knots stand out of the dry heartwood; rows
-// between two slices take the nearer slice. Each fitted knot crossing the cylinder is drawn
-// where its formula puts it, a circle of its fitted diameter (red: dead there, green: sound)
-// with its id.
-cv::Mat unrolled_image(const LogVolume& vol, const Stem& stem, const std::vector<Knot>& knots,
-                       double r) {
-  const int n = vol.slice_count();
-  const std::vector<double>& zs = vol.geometry().z;
-  const double z_first = n ? zs.front() : 0.0, extent = n ? zs.back() - zs.front() : 0.0;
-  const double scale = std::clamp(2000.0 / std::max(extent, 1.0), 0.5, 2.0);  // px per mm
-  const int w = std::max(16, static_cast<int>(std::lround(kTwoPi * r * scale)));
-  const int h = std::max(1, static_cast<int>(std::lround(extent * scale)) + 1);
-  cv::Mat grey(h, w, CV_8UC1, cv::Scalar(0));
-  for (int row = 0; row < h; ++row) {
-    const double z = z_first + row / scale;
-    const auto it = std::lower_bound(zs.begin(), zs.end(), z);
-    int i = static_cast<int>(it - zs.begin());
-    if (i >= n || (i > 0 && z - zs[static_cast<size_t>(i - 1)] < zs[static_cast<size_t>(i)] - z))
-      --i;
-    const double zi = zs[static_cast<size_t>(i)];
-    if (zi < stem.z_begin() || zi > stem.z_end()) continue;
-    const Vec2 c = stem.pith_at(zi);
-    for (int k = 0; k < w; ++k) {
-      const double om = kTwoPi * (k + 0.5) / w;
-      const double v = vol.at(i, c.x + r * std::cos(om), c.y + r * std::sin(om));
-      grey.at<unsigned char>(row, k) =
-          static_cast<unsigned char>(std::clamp((v + 700.0) / 900.0 * 255.0, 0.0, 255.0));
-    }
-  }
+// The unrolled view with each fitted knot crossing its cylinder drawn where its formula puts
+// it, a circle of its fitted diameter (red: dead there, green: sound) with its id.
+cv::Mat unrolled_image(const UnrolledView& v, const std::vector<Knot>& knots) {
+  const double r = v.r_mm, z_first = v.z_first, scale = v.px_per_mm;
+  const int w = v.width;
+  cv::Mat grey(v.height, v.width, CV_8UC1, const_cast<std::uint8_t*>(v.grey.data()));
   cv::Mat img;
   cv::cvtColor(grey, img, cv::COLOR_GRAY2BGR);
   for (const Knot& k : knots) {
@@ -184,6 +160,43 @@ std::string knot_table(const KnotScan& k) {
 
 }  // namespace
 
+// The log's cylinder of pith distance r unrolled: azimuth 0..2π left to right, height down the
+// image, both at the same scale (2 px/mm for a short scan, down to 0.5 px/mm for a long one, so
+// knots keep their shape), HU windowed -700..+200 so knots stand out of the dry heartwood; rows
+// between two slices take the nearer slice.
+UnrolledView unroll_view(const LogVolume& vol, const Stem& stem, double r) {
+  UnrolledView v;
+  const int n = vol.slice_count();
+  const std::vector<double>& zs = vol.geometry().z;
+  const double z_first = n ? zs.front() : 0.0, extent = n ? zs.back() - zs.front() : 0.0;
+  const double scale = std::clamp(2000.0 / std::max(extent, 1.0), 0.5, 2.0);  // px per mm
+  const int w = std::max(16, static_cast<int>(std::lround(kTwoPi * r * scale)));
+  const int h = std::max(1, static_cast<int>(std::lround(extent * scale)) + 1);
+  v.r_mm = r;
+  v.z_first = z_first;
+  v.px_per_mm = scale;
+  v.width = w;
+  v.height = h;
+  v.grey.assign(static_cast<size_t>(w) * h, 0);
+  for (int row = 0; row < h && n > 0; ++row) {
+    const double z = z_first + row / scale;
+    const auto it = std::lower_bound(zs.begin(), zs.end(), z);
+    int i = static_cast<int>(it - zs.begin());
+    if (i >= n || (i > 0 && z - zs[static_cast<size_t>(i - 1)] < zs[static_cast<size_t>(i)] - z))
+      --i;
+    const double zi = zs[static_cast<size_t>(i)];
+    if (zi < stem.z_begin() || zi > stem.z_end()) continue;
+    const Vec2 c = stem.pith_at(zi);
+    for (int k = 0; k < w; ++k) {
+      const double om = kTwoPi * (k + 0.5) / w;
+      const double hu = vol.at(i, c.x + r * std::cos(om), c.y + r * std::sin(om));
+      v.grey[static_cast<size_t>(row) * w + k] =
+          static_cast<std::uint8_t>(std::clamp((hu + 700.0) / 900.0 * 255.0, 0.0, 255.0));
+    }
+  }
+  return v;
+}
+
 Status write_scan_qa_images(const ScanResult& scan, SliceSource& src, const fs::path& dir,
                             int slices) {
   const StemScan& s = scan.stem;
@@ -204,10 +217,9 @@ Status write_scan_qa_images(const ScanResult& scan, SliceSource& src, const fs::
   }
   if (!cv::imwrite((dir / "pith_track.png").string(), pith_plot(s, scan.qa)))
     return Error((dir / "pith_track.png").string(), "cannot write the QA image");
-  for (double r : {30.0, 60.0, 90.0}) {
-    const std::string name = "unrolled_r" + std::to_string(static_cast<int>(r)) + ".png";
-    if (!cv::imwrite((dir / name).string(),
-                     unrolled_image(*scan.volume, s.stem, scan.knots.knots, r)))
+  for (const UnrolledView& v : scan.unrolled) {
+    const std::string name = "unrolled_r" + std::to_string(static_cast<int>(v.r_mm)) + ".png";
+    if (!cv::imwrite((dir / name).string(), unrolled_image(v, scan.knots.knots)))
       return Error((dir / name).string(), "cannot write the QA image");
   }
   return write_text_file_atomic(dir / "knots.csv", knot_table(scan.knots));

@@ -14,10 +14,13 @@
 // so the source is read once (and a few slices again for the QA images).
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "sawyer/core/result.h"
 #include "sawyer/ct/io/slice_source.h"
@@ -34,16 +37,34 @@ struct ScanOptions {
   KnotScanOptions knots;
   QaOptions qa;
   bool find_knots = true;
+  // Keep the voxels the knot pass read in ScanResult::volume (tools and tests that look at
+  // them). By default they are released as soon as the knot pass and the unrolled QA views are
+  // done, so the rest of a run (sawing, the report) does not carry them.
+  bool keep_volume = false;
   int threads = 0;  // 0: every core; overrides the passes' own
   // The model's id, species and the name its provenance gives the source ("" : "scan").
   std::string id, species = "unknown", source_name;
 };
 
+// The log's voxels on the cylinder r mm around the pith, unrolled (azimuth 0..2π across, height
+// down, the same px_per_mm both ways), HU windowed -700..+200 to 8 bits: the scan QA's unrolled
+// views (qa/unrolled_r*.png), taken before the voxels are released.
+struct UnrolledView {
+  double r_mm = 0, z_first = 0, px_per_mm = 1;
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> grey;  // rows top to bottom
+};
+UnrolledView unroll_view(const LogVolume& volume, const Stem& stem, double r_mm);
+
 struct ScanResult {
   LogModel log;   // scanner frame (place_in_scanner_frame), qa set
   StemScan stem;  // the passes' records, in the slices' own axes (pixel (0, 0) at 0, 0)
   KnotScan knots;
-  std::unique_ptr<LogVolume> volume;  // the voxels the knot pass read
+  // The voxels the knot pass read: null unless ScanOptions::keep_volume; voxel_bytes says how
+  // much they took while they were held.
+  std::unique_ptr<LogVolume> volume;
+  std::size_t voxel_bytes = 0;
+  std::vector<UnrolledView> unrolled;  // at 30, 60 and 90 mm from the pith
   ScanQaDetail qa;
   double seconds = 0;
 };
