@@ -47,7 +47,7 @@ if [ ${#need[@]} -gt 0 ]; then
     refuse "apt-get could not install ${pkgs[*]}"
 fi
 t_installed=$(date +%s)
-say "slurm $(sinfo --version 2>/dev/null | cut -d' ' -f2), $(munged --version | head -1), sawyer $sawyer"
+say "$(slurmctld -V), $(munged --version | head -1), sawyer $sawyer"
 
 T=$(mktemp -d /tmp/sawyer_slurm.XXXXXX)
 chmod 755 "$T"
@@ -130,11 +130,11 @@ if [ $up = 0 ]; then
 fi
 say "cluster up: $(sinfo -h -N -o '%N %t cpus=%c mem=%mMB')"
 
-# ---- the scans: 4 small phantoms (40 cm of Gran_1, fine enough for the scan QA) and one bad ---
+# ---- the scans: 4 small phantoms (30 cm of Gran_1, fine enough for the scan QA) and one bad ---
 mkdir -p "$T/scans/broken"
 for s in 1 2 3 4; do
   "$sawyer" phantom "$repo/sample_logs/gran1_spruce/log.json" -o "$T/scans/log_$s" \
-    --from-mm 1000 --to-mm 1400 --size 480 --pixel-mm 0.8 --seed "$s" \
+    --from-mm 1000 --to-mm 1300 --size 480 --pixel-mm 0.8 --seed "$s" \
     --threads "$cpus" >"$T/log/phantom_$s.log" 2>&1 ||
     { tail -n 5 "$T/log/phantom_$s.log" >&2; fail "sawyer phantom (seed $s) failed"; }
 done
