@@ -27,8 +27,9 @@ if [ -z "$sawyer" ]; then
   if [ -x "$repo/build/apps/sawyer/sawyer" ]; then sawyer=$repo/build/apps/sawyer/sawyer
   else sawyer=$(command -v sawyer || true); fi
 fi
-[ -n "$sawyer" ] && [ -x "$sawyer" ] ||
+[ -n "$sawyer" ] ||
   refuse "no sawyer binary: give its path (build/apps/sawyer/sawyer is not built, none on PATH)"
+{ [ -f "$sawyer" ] && [ -x "$sawyer" ]; } || refuse "$sawyer: not an executable file (the sawyer binary)"
 sawyer=$(realpath "$sawyer")
 
 t_start=$(date +%s)
@@ -54,7 +55,7 @@ chmod 755 "$T"
 pids=()
 cleanup() {
   local rc=$?
-  [ -n "${jobid:-}" ] && scancel "$jobid" >/dev/null 2>&1 || true
+  if [ -n "${jobid:-}" ]; then scancel "$jobid" >/dev/null 2>&1 || true; fi
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
   for p in "${pids[@]}"; do
     for _ in $(seq 50); do kill -0 "$p" 2>/dev/null || break; sleep 0.2; done
