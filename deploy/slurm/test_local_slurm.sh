@@ -55,6 +55,9 @@ chmod 755 "$T"
 pids=()
 cleanup() {
   local rc=$?
+  # 2 means "cannot run here" (refuse, all before this trap); a command that failed later with
+  # status 2 is a failure, not a skip.
+  if [ $rc -eq 2 ]; then rc=1; fi
   if [ -n "${jobid:-}" ]; then scancel "$jobid" >/dev/null 2>&1 || true; fi
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
   for p in "${pids[@]}"; do
