@@ -32,6 +32,12 @@ npm_tools() {
     npm ci --prefix tools/gltf --no-audit --no-fund --silent ||
       echo "install_deps: npm ci failed; ExportTools.KhronosValidatorFindsNoErrors will skip" >&2
   fi
+  # The Kubernetes API schemas (kubernetes-models), pinned by tools/k8s/package-lock.json.
+  if [ ! -d tools/k8s/node_modules/kubernetes-models ]; then
+    echo "install_deps: npm ci --prefix tools/k8s"
+    npm ci --prefix tools/k8s --no-audit --no-fund --silent ||
+      echo "install_deps: npm ci failed; the K8sManifest tests will skip" >&2
+  fi
 }
 cd "$(dirname "$0")/.."
 

@@ -37,11 +37,14 @@ run=()
 if [ -z "${DISPLAY:-}" ] && command -v xvfb-run >/dev/null; then
   run=(xvfb-run -a -s "-screen 0 1280x1024x24")
 fi
-"${run[@]}" ctest --test-dir "$dir" --output-on-failure -j "$(nproc)"
+# Tests labelled root (SlurmJobArray: installs Slurm, starts its daemons) run only as root.
+not_root=()
+if [ "$(id -u)" -ne 0 ]; then not_root=(-LE root); fi
+"${run[@]}" ctest --test-dir "$dir" --output-on-failure -j "$(nproc)" "${not_root[@]}"
 if [ "$mode" = sanitize ]; then
   # The leak pass: every test whose processes never open a GL context (no renderer, report,
   # viewer, window, `sawyer run`, which writes the report, or `sawyer export`).
-  gl='Render|Viewer|Report|RunCli|Batch|PublishedRender|DataLoss|Interrupt|Concurrency|InventedSlices|Register.AFailed|RenderLimits|LogJsonLimits.EveryCommand|Export|BoardBake|OslField'
+  gl='Render|Viewer|Report|RunCli|Batch|PublishedRender|DataLoss|Interrupt|Concurrency|InventedSlices|Register.AFailed|RenderLimits|LogJsonLimits.EveryCommand|Export|BoardBake|OslField|SlurmJobArray'
   ASAN_OPTIONS="detect_leaks=1:allocator_may_return_null=1" \
-    "${run[@]}" ctest --test-dir "$dir" --output-on-failure -j "$(nproc)" -E "$gl"
+    "${run[@]}" ctest --test-dir "$dir" --output-on-failure -j "$(nproc)" -E "$gl" "${not_root[@]}"
 fi
