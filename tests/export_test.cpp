@@ -409,22 +409,28 @@ TEST(BoardBake, SupersampledMapsAreTheMeanOfTheirSamples) {
 
 std::string gran1() { return test::quoted(test::sample_log("gran1_spruce") / "log.json"); }
 
+// gran1 sawn at rotation 30, offset 2 into dir/sawing.json, its boards exported at 0.2 px/mm
+// to dir/boards.glb; `flags` go to the export.
+void saw_and_export(const test::TempDir& dir, const std::string& flags, std::string* out) {
+  ASSERT_EQ(
+      test::run_sawyer(
+          "saw " + gran1() + " -q --position 30,2 -o " + test::quoted(dir / "sawing.json"), out),
+      0)
+      << *out;
+  ASSERT_EQ(test::run_sawyer("export " + gran1() + " " + flags + "--sawing " +
+                                 test::quoted(dir / "sawing.json") + " --px-per-mm 0.2 -o " +
+                                 test::quoted(dir / "boards.glb"),
+                             out),
+            0)
+      << *out;
+}
+
 // The boards of a sawing.json: one node each, named by number and grade, each box's edges the
 // record's length, width and thickness; the scene names the log.
 TEST(ExportCli, SawingBoardsByNumberGradeAndSize) {
   test::TempDir dir;
   std::string out;
-  ASSERT_EQ(
-      test::run_sawyer(
-          "saw " + gran1() + " -q --position 30,2 -o " + test::quoted(dir / "sawing.json"), &out),
-      0)
-      << out;
-  ASSERT_EQ(
-      test::run_sawyer("export " + gran1() + " --sawing " + test::quoted(dir / "sawing.json") +
-                           " --px-per-mm 0.2 -o " + test::quoted(dir / "boards.glb"),
-                       &out),
-      0)
-      << out;
+  ASSERT_NO_FATAL_FAILURE(saw_and_export(dir, "", &out));
   EXPECT_NE(out.find("wrote"), std::string::npos) << out;
   std::ifstream sf(dir / "sawing.json");
   const json saw = json::parse(sf);
@@ -527,17 +533,7 @@ TEST(ExportTools, KhronosValidatorFindsNoErrors) {
     GTEST_SKIP() << "gltf-validator not installed: npm ci --prefix " << tools.string();
   test::TempDir dir;
   std::string out;
-  ASSERT_EQ(
-      test::run_sawyer(
-          "saw " + gran1() + " -q --position 30,2 -o " + test::quoted(dir / "sawing.json"), &out),
-      0)
-      << out;
-  ASSERT_EQ(
-      test::run_sawyer("export " + gran1() + " -q --sawing " + test::quoted(dir / "sawing.json") +
-                           " --px-per-mm 0.2 -o " + test::quoted(dir / "boards.glb"),
-                       &out),
-      0)
-      << out;
+  ASSERT_NO_FATAL_FAILURE(saw_and_export(dir, "-q ", &out));
   const int rc = test::run_command(
       "node " + test::quoted(tools / "validate.js") + " " + test::quoted(dir / "boards.glb"), &out);
   std::cout << out;
