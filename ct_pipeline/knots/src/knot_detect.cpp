@@ -75,6 +75,13 @@ struct Grid {
   // roughness mix the two there; the last 2 mm under the bark neither (bark, blur).
   std::vector<std::int16_t> heart_in, sap_in, out;
   std::vector<std::int16_t> hu;  // HU, then contrast [(i·nr + j)·nw + k]
+  std::vector<char> live;        // per slice: a log to unroll there
+  // The window's own slices (streamed pass): what is rejected elsewhere is counted elsewhere.
+  int core_lo = 0, core_hi = std::numeric_limits<int>::max();
+  bool owns(int i) const { return i >= core_lo && i < core_hi; }
+  // Unrolling: per azimuth cos/spacing_x and sin/spacing_y, and the pixel spacing.
+  std::vector<double> cw, sw;
+  double sx = 1, sy = 1;
   // Outline radius (under bark) per slice and azimuth [i·nw + k], mm, and its mean per slice.
   std::vector<float> outer;
   std::vector<double> outer_mean;
@@ -122,23 +129,41 @@ struct Grid {
   }
 };
 
-Grid unroll(const LogVolume& volume, const Stem& stem, const KnotDetectOptions& o, int threads) {
+// One slice's pixels for the unroll: a plane the stem pass kept (16 bits, cropped) or the whole
+// slice read again (float, quantised here exactly as LogVolume::keep stores it, so that both
+// give the same grid).
+struct PlaneRef {
+  const std::int16_t* q = nullptr;
+  const float* f = nullptr;
+  int x0 = 0, y0 = 0, width = 0, height = 0;
+  float at(size_t idx) const { return q ? q[idx] : quantise_hu(f[idx]); }
+};
+
+PlaneRef plane_ref(const LogPlane& p) { return {p.hu.data(), nullptr, p.x0, p.y0, p.width, p.height}; }
+PlaneRef plane_ref(const Slice& s) { return {nullptr, s.hu.data(), 0, 0, s.width, s.height}; }
+
+// The grid of slices [a, b) of `geo` with everything but the samples: the outline and wood
+// classes of every (slice, azimuth), the shells; samples all kInvalid (unroll_slice fills them).
+// `kept(i)` (scan index) says whether slice i has a log to unroll.
+template <class Kept>
+Grid make_grid(const VolumeGeometry& geo, int a, int b, const Stem& stem,
+               const KnotDetectOptions& o, int threads, const Kept& kept) {
   Grid g;
-  const VolumeGeometry& geo = volume.geometry();
-  g.ns = volume.slice_count();
+  g.ns = b - a;
   g.nw = std::max(8, o.n_omega);
   g.dw = kTwoPi / g.nw;
   g.dr = o.dr_mm > 0 ? o.dr_mm : 1.0;
   g.r0 = g.dr;
-  g.z.assign(geo.z.begin(), geo.z.end());
+  g.z.assign(geo.z.begin() + a, geo.z.begin() + b);
   const size_t nq = static_cast<size_t>(g.ns) * g.nw;
   std::vector<float> outer(nq, 0.f), heart(nq, 0.f);
-  auto in_stem = [&](int i) {
+  g.live.assign(static_cast<size_t>(g.ns), 0);
+  for (int i = 0; i < g.ns; ++i) {
     const double z = g.z[static_cast<size_t>(i)];
-    return volume.plane(i).width > 1 && z >= stem.z_begin() && z <= stem.z_end();
-  };
+    g.live[static_cast<size_t>(i)] = kept(a + i) && z >= stem.z_begin() && z <= stem.z_end();
+  }
   parallel_for(g.ns, threads, [&](int i) {
-    if (!in_stem(i)) return;
+    if (!g.live[static_cast<size_t>(i)]) return;
     const double z = g.z[static_cast<size_t>(i)];
     for (int k = 0; k < g.nw; ++k) {
       const size_t q = static_cast<size_t>(i) * g.nw + k;
@@ -185,30 +210,40 @@ Grid unroll(const LogVolume& volume, const Stem& stem, const KnotDetectOptions& 
     g.outer_mean[static_cast<size_t>(i)] = n ? s / n : 0.0;
   });
   g.hu.assign(static_cast<size_t>(g.ns) * g.nr * g.nw, kInvalid);
-  // Direct bilinear sampling of the kept plane (LogVolume::at, without its per-call setup).
-  const double sx = geo.spacing_x, sy = geo.spacing_y;
-  std::vector<double> cw(static_cast<size_t>(g.nw)), sw(static_cast<size_t>(g.nw));
-  for (int k = 0; k < g.nw; ++k) cw[k] = std::cos(k * g.dw) / sx, sw[k] = std::sin(k * g.dw) / sy;
-  parallel_for(g.ns, threads, [&](int i) {
-    if (!in_stem(i)) return;
-    const LogPlane& pl = volume.plane(i);
-    const Vec2 p = stem.pith_at(g.z[static_cast<size_t>(i)]);
-    const double c0 = p.x / sx - pl.x0, r0 = p.y / sy - pl.y0;
-    for (int k = 0; k < g.nw; ++k) {
-      const int jend = g.out[static_cast<size_t>(i) * g.nw + k];
-      for (int j = 0; j < jend; ++j) {
-        const double rr = g.r(j);
-        const double c = c0 + rr * cw[k], r = r0 + rr * sw[k];
-        if (!(c >= 0.0 && r >= 0.0 && c < pl.width - 1 && r < pl.height - 1)) continue;
-        const int ci = static_cast<int>(c), ri = static_cast<int>(r);
-        const float fc = static_cast<float>(c - ci), fr = static_cast<float>(r - ri);
-        const std::int16_t* v = &pl.hu[static_cast<size_t>(ri) * pl.width + ci];
-        const float a = v[0] + fc * static_cast<float>(v[1] - v[0]);
-        const float b = v[pl.width] + fc * static_cast<float>(v[pl.width + 1] - v[pl.width]);
-        g.hu[g.at(i, j, k)] = round_hu(a + fr * (b - a));
-      }
+  g.cw.resize(static_cast<size_t>(g.nw)), g.sw.resize(static_cast<size_t>(g.nw));
+  for (int k = 0; k < g.nw; ++k)
+    g.cw[k] = std::cos(k * g.dw) / geo.spacing_x, g.sw[k] = std::sin(k * g.dw) / geo.spacing_y;
+  g.sx = geo.spacing_x, g.sy = geo.spacing_y;
+  return g;
+}
+
+// Grid slice i's samples from its pixels: bilinear, inside the outline's shells.
+void unroll_slice(Grid& g, int i, const PlaneRef& pl, const Stem& stem) {
+  if (!g.live[static_cast<size_t>(i)] || pl.width < 2) return;
+  const Vec2 p = stem.pith_at(g.z[static_cast<size_t>(i)]);
+  const double c0 = p.x / g.sx - pl.x0, r0 = p.y / g.sy - pl.y0;
+  for (int k = 0; k < g.nw; ++k) {
+    const int jend = g.out[static_cast<size_t>(i) * g.nw + k];
+    for (int j = 0; j < jend; ++j) {
+      const double rr = g.r(j);
+      const double c = c0 + rr * g.cw[k], r = r0 + rr * g.sw[k];
+      if (!(c >= 0.0 && r >= 0.0 && c < pl.width - 1 && r < pl.height - 1)) continue;
+      const int ci = static_cast<int>(c), ri = static_cast<int>(r);
+      const float fc = static_cast<float>(c - ci), fr = static_cast<float>(r - ri);
+      const size_t v = static_cast<size_t>(ri) * pl.width + ci;
+      const float v00 = pl.at(v), v01 = pl.at(v + 1);
+      const float v10 = pl.at(v + pl.width), v11 = pl.at(v + pl.width + 1);
+      const float a = v00 + fc * (v01 - v00);
+      const float b = v10 + fc * (v11 - v10);
+      g.hu[g.at(i, j, k)] = round_hu(a + fr * (b - a));
     }
-  });
+  }
+}
+
+Grid unroll(const LogVolume& volume, const Stem& stem, const KnotDetectOptions& o, int threads) {
+  Grid g = make_grid(volume.geometry(), 0, volume.slice_count(), stem, o, threads,
+                     [&](int i) { return volume.plane(i).width > 1; });
+  parallel_for(g.ns, threads, [&](int i) { unroll_slice(g, i, plane_ref(volume.plane(i)), stem); });
   return g;
 }
 
@@ -508,7 +543,7 @@ std::vector<Blob> label_shell(const Grid& g, int j, double low, double high, dou
                        height - 2 * dz > std::max(o.streak_min_z_mm, o.streak_ratio * width);
     const bool round = g.r(j) >= o.sheet_min_r_mm && width > std::max(o.sheet_arc_mm, 3 * height);
     if (along || round) {
-      ++*sheets;
+      if (g.owns(i0)) ++*sheets;
       continue;
     }
     out.push_back(std::move(b));
@@ -1092,27 +1127,21 @@ std::vector<KnotTrace> merge_pieces(std::vector<KnotTrace> traces) {
   return out;
 }
 
-}  // namespace
 
-std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
-                                    const KnotDetectOptions& options, KnotDetectSummary* summary) {
-  KnotDetectSummary sum;
+// Steps 2 to 7 on an unrolled grid (slices with no log are all kInvalid): the traces, ordered,
+// and what was done in *sum (the unroll's time is the caller's).
+std::vector<KnotTrace> detect_in_grid(Grid& g, const Stem& stem, const KnotDetectOptions& options,
+                                      int threads, KnotDetectSummary& sum) {
   using Clock = std::chrono::steady_clock;
-  const auto t_start = Clock::now();
-  auto t_prev = t_start;
+  auto t_prev = Clock::now();
   auto lap = [&t_prev]() {
     const auto now = Clock::now();
     const double s = std::chrono::duration<double>(now - t_prev).count();
     t_prev = now;
     return s;
   };
-  const int threads = options.threads > 0
-                          ? options.threads
-                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  if (volume.slice_count() < 2 || stem.slice_count() == 0) return {};
-  Grid g = unroll(volume, stem, options, threads);
   if (!stem.has_heartwood()) estimate_heartwood(g, threads);
-  sum.unroll_s = lap();
+  sum.unroll_s += lap();
   to_contrast(g, threads, options.level_half_window);
   // Thresholds from the scan itself: the contrast's spread where there is no knot sets how far
   // above it a knot must stand: the noise, and half of what the ring levels left (the rest of
@@ -1159,9 +1188,16 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
     }
   for (const Track& t : tracks) {
     if (t.shell.empty()) continue;
+    // Rejections are counted by the window that owns the track's innermost samples.
+    int own = 1;
+    for (size_t n = t.pix.size(); n-- > 0;)
+      if (!t.pix[n].empty()) {
+        own = g.owns(t.pix[n].front() / g.nw);
+        break;
+      }
     const double span = (t.shell.front() - t.shell.back()) * g.dr;
     if (span < options.min_length_mm) {
-      ++sum.rejected_short;
+      sum.rejected_short += own;
       continue;
     }
     KnotTrace kt;
@@ -1173,27 +1209,27 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
     // What is left after the truncated shells must still be long enough to be a knot.
     if (kt.shells.size() < 2 ||
         kt.shells.back().r - kt.shells.front().r + g.dr < options.min_length_mm) {
-      ++sum.rejected_short;
+      sum.rejected_short += own;
       continue;
     }
     // A knot rises slowly with r (the measured logs: dz/dr between -0.3 and 0.8). A run whose
     // centre climbs or falls steeply is something lying along the log (the heartwood border, a
     // crack, a support), not a branch: following it outwards would extrapolate that slope.
     if (std::abs(z_slope(kt.shells)) > options.max_axis_slope) {
-      ++sum.rejected_steep;
+      sum.rejected_steep += own;
       continue;
     }
     // Nor does it turn round the log: ω = d0 + d1·ln r moves a knot's centre by d1 mm of arc
     // per mm of r, and d1 stays well under one. A run that slides round the log as it goes
     // out is a ring: an oval latewood band cut by the shells into arcs that move with r.
     if (std::abs(arc_slope(kt.shells)) > options.max_arc_slope) {
-      ++sum.rejected_drift;
+      sum.rejected_drift += own;
       continue;
     }
     double dmax = 0;
     for (const KnotShell& s : kt.shells) dmax = std::max(dmax, s.diameter);
     if (dmax < options.min_diameter_mm) {
-      ++sum.rejected_small;
+      sum.rejected_small += own;
       continue;
     }
     follow_outwards(g, options, follow_min, &kt);
@@ -1204,7 +1240,7 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
       if (!s.predicted) ds.push_back(s.diameter);
     const double d_med = ds.empty() ? 0.0 : median_inplace(ds);
     if (kt.shells.back().r - kt.shells.front().r + g.dr < options.min_length_diameters * d_med) {
-      ++sum.rejected_stubby;
+      sum.rejected_stubby += own;
       continue;
     }
     const KnotShell& last = kt.shells.back();
@@ -1219,6 +1255,168 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
     return a.shells.front().omega < b.shells.front().omega;
   });
   sum.follow_s = lap();
+  sum.traces = static_cast<int>(out.size());
+  return out;
+}
+
+int thread_count(const KnotDetectOptions& o) {
+  return o.threads > 0 ? o.threads
+                       : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+}  // namespace
+
+std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
+                                    const KnotDetectOptions& options, KnotDetectSummary* summary) {
+  using Clock = std::chrono::steady_clock;
+  const auto t_start = Clock::now();
+  const int threads = thread_count(options);
+  if (volume.slice_count() < 2 || stem.slice_count() == 0) return {};
+  Grid g = unroll(volume, stem, options, threads);
+  KnotDetectSummary sum;
+  sum.unroll_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+  sum.grid_bytes = g.hu.size() * sizeof(std::int16_t);
+  std::vector<KnotTrace> out = detect_in_grid(g, stem, options, threads, sum);
+  sum.total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+  if (summary) *summary = sum;
+  return out;
+}
+
+
+namespace {
+// Slices [read_begin, read_end) read for a window whose own slices are [core_begin, core_end).
+struct Window {
+  int read_begin = 0, read_end = 0, core_begin = 0, core_end = 0;
+};
+
+std::vector<Window> plan_windows(int n, double dz, const KnotWindowOptions& o) {
+  const int core = std::max(1, static_cast<int>(std::lround(o.core_mm / dz)));
+  const int margin = std::max(0, static_cast<int>(std::ceil(o.margin_mm / dz)));
+  if (n <= core + 2 * margin) return {{0, n, 0, n}};
+  const int count = (n + core - 1) / core;
+  const int each = (n + count - 1) / count;
+  std::vector<Window> out;
+  for (int c = 0; c < n; c += each) {
+    const int e = std::min(n, c + each);
+    out.push_back({std::max(0, c - margin), std::min(n, e + margin), c, e});
+  }
+  return out;
+}
+
+double spacing_of(const VolumeGeometry& g) {
+  const int n = g.slice_count();
+  return n >= 2 ? std::max(1e-3, (g.z.back() - g.z.front()) / (n - 1)) : 1.0;
+}
+}  // namespace
+
+std::size_t knot_grid_bytes(int slices, double r_max_mm, const KnotDetectOptions& o) {
+  const double dr = o.dr_mm > 0 ? o.dr_mm : 1.0;
+  const double shells = std::max(1.0, std::ceil(r_max_mm / dr));
+  const double samples = static_cast<double>(slices) * shells * std::max(8, o.n_omega);
+  return static_cast<std::size_t>(samples * 2 * 1.3);
+}
+
+int knot_window_slices(const VolumeGeometry& geometry, const KnotWindowOptions& window) {
+  int most = 0;
+  for (const Window& w : plan_windows(geometry.slice_count(), spacing_of(geometry), window))
+    most = std::max(most, w.read_end - w.read_begin);
+  return most;
+}
+
+Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& stem,
+                                            const std::vector<char>* has_log,
+                                            const KnotDetectOptions& options,
+                                            const KnotWindowOptions& window,
+                                            KnotDetectSummary* summary,
+                                            const KnotSliceVisitor& visit) {
+  using Clock = std::chrono::steady_clock;
+  const auto t_start = Clock::now();
+  const VolumeGeometry& geo = source.geometry();
+  const int n = geo.slice_count();
+  const int threads = thread_count(options);
+  KnotDetectSummary sum;
+  sum.windows = 0;
+  std::vector<KnotTrace> out;
+  if (n < 2 || stem.slice_count() == 0) {
+    if (summary) *summary = sum;
+    return out;
+  }
+  if (has_log && static_cast<int>(has_log->size()) != n)
+    return Error("knot scan", "the slice mask does not match the scan's slices");
+  auto kept = [&](int i) { return !has_log || (*has_log)[static_cast<size_t>(i)] != 0; };
+  const double dz = spacing_of(geo);
+  const std::vector<Window> windows = plan_windows(n, dz, window);
+  const int batch = 4 * threads;
+  std::vector<Slice> slices(static_cast<size_t>(batch));
+  std::vector<int> at(static_cast<size_t>(batch));
+  int visited = -1;
+  double weight = 0;
+  KnotDetectSummary mean;  // signal figures, weighted by the windows' own slices
+  for (size_t wi = 0; wi < windows.size(); ++wi) {
+    const Window& w = windows[wi];
+    auto t0 = Clock::now();
+    Grid g = make_grid(geo, w.read_begin, w.read_end, stem, options, threads, kept);
+    g.core_lo = w.core_begin - w.read_begin, g.core_hi = w.core_end - w.read_begin;
+    for (int i = w.read_begin; i < w.read_end;) {
+      int m = 0;
+      const auto tr = Clock::now();
+      for (; i < w.read_end && m < batch; ++i) {
+        if (!g.live[static_cast<size_t>(i - w.read_begin)]) continue;
+        const Status st = source.read(i, slices[static_cast<size_t>(m)]);
+        if (!st) return st.error();
+        at[static_cast<size_t>(m++)] = i;
+      }
+      sum.read_s += std::chrono::duration<double>(Clock::now() - tr).count();
+      parallel_for(m, threads, [&](int b) {
+        unroll_slice(g, at[static_cast<size_t>(b)] - w.read_begin,
+                     plane_ref(slices[static_cast<size_t>(b)]), stem);
+      });
+      if (visit)
+        for (int b = 0; b < m; ++b)
+          if (at[static_cast<size_t>(b)] > visited) {
+            visited = at[static_cast<size_t>(b)];
+            visit(visited, slices[static_cast<size_t>(b)]);
+          }
+    }
+    KnotDetectSummary ws;
+    ws.unroll_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    sum.grid_bytes = std::max(sum.grid_bytes, g.hu.size() * sizeof(std::int16_t));
+    std::vector<KnotTrace> traces = detect_in_grid(g, stem, options, threads, ws);
+    g = Grid{};
+    // This window's own: the traces whose innermost shell lies in its core.
+    const double z_lo = wi == 0 ? -HUGE_VAL : geo.z[static_cast<size_t>(w.core_begin)] - 0.5 * dz;
+    const double z_hi =
+        wi + 1 == windows.size() ? HUGE_VAL : geo.z[static_cast<size_t>(w.core_end - 1)] + 0.5 * dz;
+    for (KnotTrace& t : traces) {
+      const double z = t.shells.front().z;
+      if (z >= z_lo && z < z_hi) out.push_back(std::move(t));
+    }
+    const double wt = w.core_end - w.core_begin;
+    weight += wt;
+    mean.noise_hu += wt * ws.noise_hu, mean.residual_hu += wt * ws.residual_hu;
+    mean.ring_hu += wt * ws.ring_hu, mean.low_hu += wt * ws.low_hu;
+    mean.high_hu += wt * ws.high_hu, mean.follow_hu += wt * ws.follow_hu;
+    sum.high_hu_min = sum.windows == 0 ? ws.high_hu : std::min(sum.high_hu_min, ws.high_hu);
+    sum.high_hu_max = std::max(sum.high_hu_max, ws.high_hu);
+    ++sum.windows;
+    sum.shells = std::max(sum.shells, ws.shells), sum.omegas = ws.omegas;
+    sum.slices += w.core_end - w.core_begin;
+    sum.blobs += ws.blobs, sum.tracks += ws.tracks;
+    sum.rejected_sheet_blobs += ws.rejected_sheet_blobs, sum.rejected_drift += ws.rejected_drift;
+    sum.rejected_short += ws.rejected_short, sum.rejected_steep += ws.rejected_steep;
+    sum.rejected_small += ws.rejected_small, sum.rejected_stubby += ws.rejected_stubby;
+    sum.unroll_s += ws.unroll_s, sum.contrast_s += ws.contrast_s, sum.segment_s += ws.segment_s;
+    sum.track_s += ws.track_s, sum.follow_s += ws.follow_s;
+  }
+  if (weight > 0) {
+    sum.noise_hu = mean.noise_hu / weight, sum.residual_hu = mean.residual_hu / weight;
+    sum.ring_hu = mean.ring_hu / weight, sum.low_hu = mean.low_hu / weight;
+    sum.high_hu = mean.high_hu / weight, sum.follow_hu = mean.follow_hu / weight;
+  }
+  std::sort(out.begin(), out.end(), [](const KnotTrace& a, const KnotTrace& b) {
+    if (a.shells.front().z != b.shells.front().z) return a.shells.front().z < b.shells.front().z;
+    return a.shells.front().omega < b.shells.front().omega;
+  });
   sum.traces = static_cast<int>(out.size());
   sum.total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
   if (summary) *summary = sum;

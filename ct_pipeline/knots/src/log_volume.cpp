@@ -32,10 +32,7 @@ void LogVolume::keep(int i, const Slice& slice, Vec2 centre, double reach_mm) {
   for (int y = 0; y < p.height; ++y) {
     const float* src = &slice.hu[static_cast<size_t>(y0 + y) * slice.width + x0];
     std::int16_t* dst = &p.hu[static_cast<size_t>(y) * p.width];
-    for (int x = 0; x < p.width; ++x) {  // rounded half away from zero, like lround, but inline
-      const float v = std::clamp(src[x], -1024.f, 32767.f);
-      dst[x] = static_cast<std::int16_t>(v >= 0.f ? v + 0.5f : v - 0.5f);
-    }
+    for (int x = 0; x < p.width; ++x) dst[x] = quantise_hu(src[x]);
   }
 }
 

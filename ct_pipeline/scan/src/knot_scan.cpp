@@ -33,23 +33,56 @@ bool inner_piece_of(const Knot& k, const KnotTrace& trace, const Knot& q, double
   }
   return n > 0 && excess / n < 0.5 * dz;
 }
+
+using Clock = std::chrono::steady_clock;
+
+int thread_count(const KnotScanOptions& options) {
+  const int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  return std::clamp(threads, 1, 16);
+}
+
+// Fits the detected traces, drops doubles, numbers the knots (slices dz mm apart).
+void fit_and_number(std::vector<KnotTrace> traces, double dz, const KnotScanOptions& options,
+                    int threads, Clock::time_point t0, Clock::time_point t1, KnotScan& out);
 }  // namespace
 
 Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
                             const KnotScanOptions& options) {
-  using clock = std::chrono::steady_clock;
-  const auto t0 = clock::now();
+  const auto t0 = Clock::now();
   KnotScan out;
   if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");
-  int threads =
-      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::clamp(threads, 1, 16);
+  const int threads = thread_count(options);
   KnotDetectOptions detect = options.detect;
   if (detect.threads <= 0) detect.threads = threads;
   std::vector<KnotTrace> traces = detect_knots(volume, stem, detect, &out.detect);
+  const double dz = volume.geometry().slice_spacing() > 0 ? volume.geometry().slice_spacing() : 1.0;
+  fit_and_number(std::move(traces), dz, options, threads, t0, Clock::now(), out);
+  return out;
+}
+
+Result<KnotScan> scan_knots(SliceSource& source, const Stem& stem,
+                            const std::vector<char>* has_log, const KnotScanOptions& options,
+                            const KnotSliceVisitor& visit) {
+  const auto t0 = Clock::now();
+  KnotScan out;
+  if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");
+  const int threads = thread_count(options);
+  KnotDetectOptions detect = options.detect;
+  if (detect.threads <= 0) detect.threads = threads;
+  auto traces = detect_knots(source, stem, has_log, detect, options.window, &out.detect, visit);
+  if (!traces) return traces.error();
+  const VolumeGeometry& g = source.geometry();
+  const double dz = g.slice_spacing() > 0 ? g.slice_spacing() : 1.0;
+  fit_and_number(std::move(traces.value()), dz, options, threads, t0, Clock::now(), out);
+  return out;
+}
+
+namespace {
+void fit_and_number(std::vector<KnotTrace> traces, double dz, const KnotScanOptions& options,
+                    int threads, Clock::time_point t0, Clock::time_point t1, KnotScan& out) {
   out.traces_found = static_cast<int>(traces.size());
   out.rejected_as_rings = out.detect.rejected_as_rings();
-  const auto t1 = clock::now();
 
   // Fits are independent: threads take traces in turn.
   std::vector<Result<KnotFitReport>> fits(traces.size(), Error("not fitted"));
@@ -62,7 +95,7 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
-  const auto t2 = clock::now();
+  const auto t2 = Clock::now();
 
   std::vector<size_t> kept;
   for (size_t i = 0; i < traces.size(); ++i) {
@@ -80,7 +113,6 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
   // per slice it steps into, each then fitted on its own: the same knot found twice. Two fitted
   // knots whose axes stay closer than a slice spacing plus half the larger diameter over at least
   // kMinCommonMm of common length are one; the better supported stays.
-  const double dz = volume.geometry().slice_spacing() > 0 ? volume.geometry().slice_spacing() : 1.0;
   std::sort(kept.begin(), kept.end(), [&](size_t a, size_t b) {
     return fits[a].value().knot.support > fits[b].value().knot.support;
   });
@@ -127,8 +159,8 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
   }
   out.seconds_detect = std::chrono::duration<double>(t1 - t0).count();
   out.seconds_fit = std::chrono::duration<double>(t2 - t1).count();
-  out.seconds = std::chrono::duration<double>(clock::now() - t0).count();
-  return out;
+  out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
 }
+}  // namespace
 
 }  // namespace sawyer::ct

@@ -12,29 +12,55 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
                             const ScanProgress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   ScanResult out;
-  out.volume = std::make_unique<LogVolume>(LogVolume::empty_like(src.geometry()));
+  // The voxels are kept through the stem pass only when asked for (tools, tests); otherwise the
+  // knot pass reads the scan again, window by window along the log, and the QA's unrolled
+  // views are taken from the slices on the way.
+  if (options.keep_volume && options.find_knots)
+    out.volume = std::make_unique<LogVolume>(LogVolume::empty_like(src.geometry()));
   StemScanOptions so = options.stem;
   so.threads = options.threads;
-  so.volume = options.find_knots ? out.volume.get() : nullptr;
+  so.volume = out.volume.get();
   auto stem = scan_stem(src, so, [&](int done, int all) {
     if (progress) progress("stem", done, all);
   });
   if (!stem) return stem.error();
   out.stem = std::move(stem.value());
+  const std::vector<double> view_radii = {30.0, 60.0, 90.0};
   if (options.find_knots) {
     if (progress) progress("knots", 0, 1);
     KnotScanOptions ko = options.knots;
     ko.threads = options.threads;
-    auto knots = scan_knots(*out.volume, out.stem.stem, ko);
+    Result<KnotScan> knots = Error("knot scan", "not run");
+    if (out.volume) {
+      knots = scan_knots(*out.volume, out.stem.stem, ko);
+      out.voxel_bytes = out.volume->bytes();
+      for (double r : view_radii) out.unrolled.push_back(unroll_view(*out.volume, out.stem.stem, r));
+    } else {
+      // The slices the stem pass found the log's outline on (those it would have kept).
+      std::vector<char> has_log(out.stem.slices.size(), 0);
+      for (size_t i = 0; i < out.stem.slices.size(); ++i) {
+        const StemSliceRecord& rec = out.stem.slices[i];
+        if (!rec.measured) continue;
+        for (size_t k = 0; k < rec.contour.radius.size(); ++k)
+          if (rec.contour.valid[k] && rec.contour.radius[k] > 0) {
+            has_log[i] = 1;
+            break;
+          }
+      }
+      std::vector<UnrolledViewBuilder> views;
+      for (double r : view_radii) views.emplace_back(src.geometry(), out.stem.stem, r);
+      knots = scan_knots(src, out.stem.stem, &has_log, ko, [&](int i, const Slice& slice) {
+        for (UnrolledViewBuilder& v : views) v.add(i, slice);
+      });
+      for (UnrolledViewBuilder& v : views) out.unrolled.push_back(v.take());
+      if (knots) out.voxel_bytes = knots.value().detect.grid_bytes;
+    }
     if (!knots) return knots.error();
     out.knots = std::move(knots.value());
     if (progress) progress("knots", 1, 1);
+  } else {
+    for (double r : view_radii) out.unrolled.push_back(UnrolledViewBuilder(src.geometry(), out.stem.stem, r).take());
   }
-  // What the QA needs of the voxels, then the voxels go (the largest thing a scan holds: the
-  // log's cross-section on every slice at 16 bits).
-  out.voxel_bytes = out.volume->bytes();
-  for (double r : {30.0, 60.0, 90.0})
-    out.unrolled.push_back(unroll_view(*out.volume, out.stem.stem, r));
   if (!options.keep_volume) out.volume.reset();
   out.qa =
       assess_scan(out.stem, options.find_knots ? &out.knots : nullptr, src.geometry(), options.qa);
@@ -65,11 +91,13 @@ std::string scan_brief(const ScanResult& scan, const std::string& input) {
   std::snprintf(line, sizeof line,
                 "scanned %s: %zu slices in %.2f s, %.0f slices/s on %d threads; stem %d samples "
                 "of %.1f mm%s; %d refined piths rejected as outliers; %zu knots in %.2f s "
-                "(detection %.2f s, fits %.2f s; %zu candidates not fitted)",
+                "(detection %.2f s: unroll %.2f, contrast %.2f, segment %.2f, track %.2f, follow %.2f; "
+                "fits %.2f s; %zu candidates not fitted)",
                 input.c_str(), s.slices.size(), s.seconds, s.slices_per_second(), s.threads,
                 s.stem.slice_count(), s.stem.dz_mm,
                 s.stem.heartwood.empty() ? "" : " with heartwood", outliers, ks.knots.size(),
-                ks.seconds, ks.seconds_detect, ks.seconds_fit, ks.rejected.size());
+                ks.seconds, ks.seconds_detect, ks.detect.unroll_s, ks.detect.contrast_s, ks.detect.segment_s,
+                ks.detect.track_s, ks.detect.follow_s, ks.seconds_fit, ks.rejected.size());
   return std::string(line) + "\n" + qa_headline(scan.qa.verdict);
 }
 

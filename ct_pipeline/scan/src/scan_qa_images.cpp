@@ -164,20 +164,21 @@ std::string knot_table(const KnotScan& k) {
 // image, both at the same scale (2 px/mm for a short scan, down to 0.5 px/mm for a long one, so
 // knots keep their shape), HU windowed -700..+200 so knots stand out of the dry heartwood; rows
 // between two slices take the nearer slice.
-UnrolledView unroll_view(const LogVolume& vol, const Stem& stem, double r) {
-  UnrolledView v;
-  const int n = vol.slice_count();
-  const std::vector<double>& zs = vol.geometry().z;
+UnrolledViewBuilder::UnrolledViewBuilder(const VolumeGeometry& g, const Stem& stem, double r)
+    : stem_(&stem), z_(g.z), sx_(g.spacing_x), sy_(g.spacing_y) {
+  const int n = g.slice_count();
+  const std::vector<double>& zs = g.z;
   const double z_first = n ? zs.front() : 0.0, extent = n ? zs.back() - zs.front() : 0.0;
   const double scale = std::clamp(2000.0 / std::max(extent, 1.0), 0.5, 2.0);  // px per mm
   const int w = std::max(16, static_cast<int>(std::lround(kTwoPi * r * scale)));
   const int h = std::max(1, static_cast<int>(std::lround(extent * scale)) + 1);
-  v.r_mm = r;
-  v.z_first = z_first;
-  v.px_per_mm = scale;
-  v.width = w;
-  v.height = h;
-  v.grey.assign(static_cast<size_t>(w) * h, 0);
+  view_.r_mm = r;
+  view_.z_first = z_first;
+  view_.px_per_mm = scale;
+  view_.width = w;
+  view_.height = h;
+  view_.grey.assign(static_cast<size_t>(w) * h, 0);
+  rows_of_.assign(static_cast<size_t>(n), {});
   for (int row = 0; row < h && n > 0; ++row) {
     const double z = z_first + row / scale;
     const auto it = std::lower_bound(zs.begin(), zs.end(), z);
@@ -186,15 +187,55 @@ UnrolledView unroll_view(const LogVolume& vol, const Stem& stem, double r) {
       --i;
     const double zi = zs[static_cast<size_t>(i)];
     if (zi < stem.z_begin() || zi > stem.z_end()) continue;
-    const Vec2 c = stem.pith_at(zi);
-    for (int k = 0; k < w; ++k) {
-      const double om = kTwoPi * (k + 0.5) / w;
-      const double hu = vol.at(i, c.x + r * std::cos(om), c.y + r * std::sin(om));
-      v.grey[static_cast<size_t>(row) * w + k] =
-          static_cast<std::uint8_t>(std::clamp((hu + 700.0) / 900.0 * 255.0, 0.0, 255.0));
-    }
+    rows_of_[static_cast<size_t>(i)].push_back(row);
   }
-  return v;
+}
+
+template <class Sample>
+void UnrolledViewBuilder::fill(int i, const Sample& hu_at) {
+  if (i < 0 || i >= static_cast<int>(rows_of_.size())) return;
+  const std::vector<int>& rows = rows_of_[static_cast<size_t>(i)];
+  if (rows.empty()) return;
+  const Vec2 c = stem_->pith_at(z_[static_cast<size_t>(i)]);
+  const int w = view_.width;
+  const double r = view_.r_mm;
+  std::vector<std::uint8_t> line(static_cast<size_t>(w));
+  for (int k = 0; k < w; ++k) {
+    const double om = kTwoPi * (k + 0.5) / w;
+    const double hu = hu_at(c.x + r * std::cos(om), c.y + r * std::sin(om));
+    line[static_cast<size_t>(k)] =
+        static_cast<std::uint8_t>(std::clamp((hu + 700.0) / 900.0 * 255.0, 0.0, 255.0));
+  }
+  for (int row : rows) std::copy(line.begin(), line.end(), &view_.grey[static_cast<size_t>(row) * w]);
+}
+
+void UnrolledViewBuilder::add(int i, const LogVolume& volume) {
+  fill(i, [&](double x, double y) { return volume.at(i, x, y); });
+}
+
+void UnrolledViewBuilder::add(int i, const Slice& s) {
+  // LogVolume::at on the whole slice: bilinear on the 16-bit HU, air outside.
+  fill(i, [&](double x, double y) -> float {
+    const double c = x / sx_, r = y / sy_;
+    if (!(c >= 0.0 && r >= 0.0 && c <= s.width - 1 && r <= s.height - 1) || s.width < 2 ||
+        s.height < 2)
+      return -1000.f;
+    const int c0 = std::min(static_cast<int>(c), s.width - 2);
+    const int r0 = std::min(static_cast<int>(r), s.height - 2);
+    const float fc = static_cast<float>(c - c0), fr = static_cast<float>(r - r0);
+    const float* q = &s.hu[static_cast<size_t>(r0) * s.width + c0];
+    const float q00 = quantise_hu(q[0]), q01 = quantise_hu(q[1]);
+    const float q10 = quantise_hu(q[s.width]), q11 = quantise_hu(q[s.width + 1]);
+    const float a = q00 + fc * (q01 - q00);
+    const float b = q10 + fc * (q11 - q10);
+    return a + fr * (b - a);
+  });
+}
+
+UnrolledView unroll_view(const LogVolume& vol, const Stem& stem, double r) {
+  UnrolledViewBuilder b(vol.geometry(), stem, r);
+  for (int i = 0; i < vol.slice_count(); ++i) b.add(i, vol);
+  return b.take();
 }
 
 Status write_scan_qa_images(const ScanResult& scan, SliceSource& src, const fs::path& dir,

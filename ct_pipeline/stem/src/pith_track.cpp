@@ -66,9 +66,14 @@ SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_
   k.height = std::clamp(cy + hy + 1, 0, s.height) - k.y0;
   if (k.width <= 0 || k.height <= 0) return SliceCrop{};
   k.hu.resize(static_cast<size_t>(k.width) * k.height);
-  for (int y = 0; y < k.height; ++y)
-    std::copy_n(&s.hu[static_cast<size_t>(k.y0 + y) * s.width + k.x0], k.width,
-                &k.hu[static_cast<size_t>(y) * k.width]);
+  for (int y = 0; y < k.height; ++y) {
+    const float* src = &s.hu[static_cast<size_t>(k.y0 + y) * s.width + k.x0];
+    std::int16_t* dst = &k.hu[static_cast<size_t>(y) * k.width];
+    for (int x = 0; x < k.width; ++x) {  // nearest whole HU, half away from zero
+      const float v = std::clamp(src[x], -32768.f, 32767.f);
+      dst[x] = static_cast<std::int16_t>(v >= 0.f ? v + 0.5f : v - 0.5f);
+    }
+  }
   return k;
 }
 
@@ -85,7 +90,8 @@ struct Level {
   float cut = 0;  // pixels farther than this from `level` are left out
 };
 
-Level wood_level(const float* img, int w, int h, double cx, double cy, double rx, double ry,
+template <class T>
+Level wood_level(const T* img, int w, int h, double cx, double cy, double rx, double ry,
                  double wood_min_hu, double wood_max_hu) {
   std::vector<float> v;
   const int x0 = std::max(0, static_cast<int>(cx - rx)),
@@ -96,7 +102,7 @@ Level wood_level(const float* img, int w, int h, double cx, double cy, double rx
     for (int x = x0; x <= x1; x += 2) {
       const double dx = (x - cx) / rx, dy = (y - cy) / ry;
       if (dx * dx + dy * dy > 1) continue;
-      const float q = img[static_cast<size_t>(y) * w + x];
+      const float q = static_cast<float>(img[static_cast<size_t>(y) * w + x]);
       if (q > wood_min_hu && q < wood_max_hu) v.push_back(q);
     }
   if (v.size() < 8) return {};
@@ -108,10 +114,12 @@ Level wood_level(const float* img, int w, int h, double cx, double cy, double rx
 }
 
 // Adds the in-level pixels of src[xa, xb) to sum and count.
-inline void add_row(const float* src, Level level, int xa, int xb, float* sum, float* cnt) {
+template <class T>
+inline void add_row(const T* src, Level level, int xa, int xb, float* sum, float* cnt) {
   for (int x = xa; x < xb; ++x) {
-    const bool in = std::abs(src[x] - level.level) <= level.cut;
-    sum[x] += in ? src[x] : 0.f;
+    const float v = static_cast<float>(src[x]);
+    const bool in = std::abs(v - level.level) <= level.cut;
+    sum[x] += in ? v : 0.f;
     cnt[x] += in ? 1.f : 0.f;
   }
 }

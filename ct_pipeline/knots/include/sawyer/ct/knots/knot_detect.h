@@ -21,7 +21,12 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
+#include <functional>
 #include <vector>
+
+#include "sawyer/core/result.h"
+#include "sawyer/ct/io/slice_source.h"
 
 #include "sawyer/ct/knots/log_volume.h"
 #include "sawyer/model/log_model.h"
@@ -135,12 +140,51 @@ struct KnotDetectSummary {
   // unroll_s includes estimating the heartwood border (stems without one); follow_s includes
   // measuring the segmented shells.
   double unroll_s = 0, contrast_s = 0, segment_s = 0, track_s = 0, follow_s = 0, total_s = 0;
+  // Streamed (detect_knots over a SliceSource): windows along the log, the largest window's
+  // grid, and the range of the high threshold over the windows (each window measures its own
+  // signal; the signal figures above are the windows' mean, weighted by their own slices).
+  int windows = 1;
+  std::size_t grid_bytes = 0;
+  double high_hu_min = 0, high_hu_max = 0;
+  double read_s = 0;  // reading the slices again (streamed only; inside unroll_s)
 };
+
+// The streamed knot pass reads the scan again in windows along the log: each window is its own
+// stretch of core_mm plus margin_mm read either side (a knot's whole tube, from its innermost
+// shell out, and the ±20 mm the wood levels pool over), and keeps the traces whose innermost
+// shell lies in its core. Memory is one window's grid, whatever the log's length. A scan no
+// longer than one window plus its margins is one window: the same grid, thresholds and traces
+// as detect_knots on the kept volume.
+struct KnotWindowOptions {
+  double core_mm = 1000;
+  double margin_mm = 170;  // a knot rises at most ~0.8 mm per mm of r over ~150 mm, ± its radius
+};
+
+// Bytes of the unrolled grid for `slices` slices of a stem whose largest outer radius is
+// `r_max_mm` (2 bytes a sample, plus the per-shell masks of the segmentation: ~1.3x).
+std::size_t knot_grid_bytes(int slices, double r_max_mm, const KnotDetectOptions& options);
+// Slices in the largest window the streamed pass reads for this geometry.
+int knot_window_slices(const VolumeGeometry& geometry, const KnotWindowOptions& window);
+
+// Called once per slice the streamed pass reads, in ascending index order, with the slice as
+// read: for what else wants the voxels on the way (the QA's unrolled views).
+using KnotSliceVisitor = std::function<void(int index, const Slice& slice)>;
 
 // Traces ordered by the height, then azimuth, of their innermost shell. Empty for an empty
 // volume or stem. `summary` (optional) receives counts and timings.
 std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
                                     const KnotDetectOptions& options,
                                     KnotDetectSummary* summary = nullptr);
+
+// The same, streamed: `source` (the scan the stem came from, in its own axes) read again slice
+// by slice in windows (KnotWindowOptions). `has_log[i]` (optional, one per slice): whether the
+// stem pass found the log's outline on slice i (the kept volume's non-empty planes); without it
+// every slice within the stem's z range is unrolled. Errors: a slice that cannot be read.
+Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& stem,
+                                            const std::vector<char>* has_log,
+                                            const KnotDetectOptions& options,
+                                            const KnotWindowOptions& window,
+                                            KnotDetectSummary* summary = nullptr,
+                                            const KnotSliceVisitor& visit = {});
 
 }  // namespace sawyer::ct

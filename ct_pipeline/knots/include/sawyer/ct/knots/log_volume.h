@@ -19,6 +19,13 @@
 
 namespace sawyer::ct {
 
+// HU as the knot pass keeps it: clamped to [-1024, 32767] and rounded half away from zero (like
+// lround, but inline: it runs per voxel).
+inline std::int16_t quantise_hu(float v) {
+  v = v < -1024.f ? -1024.f : (v > 32767.f ? 32767.f : v);
+  return static_cast<std::int16_t>(v >= 0.f ? v + 0.5f : v - 0.5f);
+}
+
 struct LogPlane {
   int x0 = 0, y0 = 0;            // pixel (x0, y0) of the slice is the plane's (0, 0)
   int width = 0, height = 0;     // 0: nothing kept (no log in this slice)

@@ -56,6 +56,25 @@ struct UnrolledView {
 };
 UnrolledView unroll_view(const LogVolume& volume, const Stem& stem, double r_mm);
 
+// The same view built slice by slice, from kept planes or from slices as they are read (the
+// streamed knot pass hands each slice on): rows take the nearest slice, as above.
+class UnrolledViewBuilder {
+ public:
+  UnrolledViewBuilder(const VolumeGeometry& geometry, const Stem& stem, double r_mm);
+  void add(int i, const LogVolume& volume);
+  void add(int i, const Slice& slice);  // slice i, as read
+  UnrolledView take() { return std::move(view_); }
+
+ private:
+  template <class Sample>
+  void fill(int i, const Sample& hu_at);
+  const Stem* stem_;
+  std::vector<double> z_;
+  double sx_ = 1, sy_ = 1;
+  std::vector<std::vector<int>> rows_of_;  // per slice, the rows that take it
+  UnrolledView view_;
+};
+
 struct ScanResult {
   LogModel log;   // scanner frame (place_in_scanner_frame), qa set
   StemScan stem;  // the passes' records, in the slices' own axes (pixel (0, 0) at 0, 0)

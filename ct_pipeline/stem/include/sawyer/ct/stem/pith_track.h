@@ -89,7 +89,9 @@ struct SliceCrop {
   std::int64_t wood_cells = 0;  // the whole slice's coarse wood count (log-end test)
   // The whole slice's wood window (wood_levels), for the level near the pith.
   double wood_min_hu = 0, wood_max_hu = 0;
-  std::vector<float> hu;
+  // HU rounded to 16 bits (half the memory of floats: the crops of every slice are held until
+  // the pith track is refined; CT numbers are whole HU in DICOM anyway).
+  std::vector<std::int16_t> hu;
 };
 
 // One slice whose pith has been decided: the slice itself (as pushed, not averaged), the raw
