@@ -149,7 +149,7 @@ struct WhorlOffsets {
 // updated. `research(centres, which)` refines the slices `which` marks again around `centres`.
 template <typename Research>
 void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<PithResult> refined,
-                    std::vector<Vec2>& track, const std::vector<SliceCrop>& crops,
+                    std::vector<Vec2>& track, const CropStore& crops,
                     const StemScanOptions& options, const VolumeGeometry& g, Research research) {
   const int n = static_cast<int>(scan.slices.size());
   std::vector<PithResult> shape_raw(static_cast<size_t>(n));
@@ -243,13 +243,15 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   std::vector<double> region(static_cast<size_t>(n), 0.0);
   for (int i = 0; i < n; ++i) {
     const StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
-    if (!rec.measured || crops[static_cast<size_t>(i)].hu.empty()) continue;
+    if (!rec.measured) continue;
+    const std::shared_ptr<const SliceCrop> crop = crops.get(i);
+    if (crop->hu.empty()) continue;
     const double heart =
         rec.heartwood.present ? median_radius(rec.heartwood.radius, rec.heartwood.valid) : 0.0;
     const double reg = heart > 0 ? 0.9 * heart : 0.6 * radius[static_cast<size_t>(i)];
     region[static_cast<size_t>(i)] = reg;
     streaks[static_cast<size_t>(i)] = knot_streaks(
-        crops[static_cast<size_t>(i)], g, shape[static_cast<size_t>(i)], reg, noise, options.whorl);
+        *crop, g, shape[static_cast<size_t>(i)], reg, noise, options.whorl);
     for (WhorlStreak& st : streaks[static_cast<size_t>(i)])
       st.centre_mm = st.centre_mm - shape[static_cast<size_t>(i)];
   }
@@ -625,7 +627,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   // on slices averaged along z, a few slices behind the input, and feeds the workers.
   Status status = Status::Ok();
   PithTracker tracker(g, options.pith, options.tracker);
-  std::vector<SliceCrop> crops(static_cast<size_t>(n));
+  CropStore crops(n, options.crop_memory_bytes);
   auto dispatch = [&](std::vector<TrackedSlice> done) {
     for (TrackedSlice& t : done) {
       StemSliceRecord& rec = scan.slices[static_cast<size_t>(t.index)];
@@ -633,7 +635,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
       rec.pith_raw = t.pith;
       rec.measured = t.has_centre;
       rec.centre = t.centre;
-      crops[static_cast<size_t>(t.index)] = std::move(t.crop);
+      crops.put(t.index, std::move(t.crop));
       Job job;
       job.index = t.index;
       job.pith = t.centre;
@@ -651,6 +653,8 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   if (status) dispatch(tracker.finish());
   scan.cpu_reading_tracking = thread_cpu_seconds() - reader_c0;
   scan.pith_full_searches = tracker.full_searches();
+  scan.crop_bytes_in_memory = crops.bytes_in_memory();
+  scan.crop_bytes_spilled = crops.bytes_spilled();
   queue.close();
   for (auto& w : workers) w.join();
   if (!status) return status.error();

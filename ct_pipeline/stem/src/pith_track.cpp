@@ -6,7 +6,11 @@
 #include <cassert>
 #include <cmath>
 #include <cstdlib>
+#include <list>
+#include <mutex>
 #include <thread>
+#include <unistd.h>
+#include <unordered_map>
 
 #include "sawyer/core/stats.h"
 
@@ -372,14 +376,15 @@ void PithTracker::decide(int centre) {
 
 namespace {
 
-PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<double>& z,
+PithResult refine_one(const CropStore& crops, const std::vector<double>& z,
                       const std::vector<Vec2>& track, const VolumeGeometry& g,
                       const PithOptions& options, const PithRefineOptions& refine, int half, int i,
                       const std::vector<std::vector<double>>* outlines, Vec2 start,
                       const std::vector<Level>& levels) {
-  const SliceCrop& c = crops[static_cast<size_t>(i)];
+  const std::shared_ptr<const SliceCrop> held = crops.get(i);
+  const SliceCrop& c = *held;
   if (c.hu.empty()) return {};
-  const int n = static_cast<int>(crops.size());
+  const int n = crops.size();
   // Only the rows and columns the refinement reads are averaged (the rest stay unused).
   const Vec2 origin{c.x0 * g.spacing_x, c.y0 * g.spacing_y};
   const Vec2 prior = start - origin;
@@ -396,8 +401,10 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
   const float centre_level = levels[static_cast<size_t>(i)].level;
   if (std::isnan(centre_level)) return {};
   for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j) {
-    const SliceCrop& m = crops[static_cast<size_t>(j)];
-    if (m.hu.empty() || std::abs(z[j] - z[i]) > refine.average_half_window_mm + 1e-9) continue;
+    if (std::abs(z[j] - z[i]) > refine.average_half_window_mm + 1e-9) continue;
+    const std::shared_ptr<const SliceCrop> mj = crops.get(j);
+    const SliceCrop& m = *mj;
+    if (m.hu.empty()) continue;
     const double change = std::abs(static_cast<double>(m.wood_cells - c.wood_cells));
     if (change > kMaxAreaChange * static_cast<double>(std::max<std::int64_t>(c.wood_cells, 1)))
       continue;
@@ -428,13 +435,13 @@ PithResult refine_one(const std::vector<SliceCrop>& crops, const std::vector<dou
 }  // namespace
 
 std::vector<PithResult> refine_pith_track(
-    const std::vector<SliceCrop>& crops, const std::vector<double>& z,
+    const CropStore& crops, const std::vector<double>& z,
     const std::vector<Vec2>& track, const VolumeGeometry& geometry, const PithOptions& options,
     const PithRefineOptions& refine, const std::vector<std::vector<double>>* outlines,
     const std::vector<bool>* which) {
-  assert(crops.size() == z.size() && z.size() == track.size());
-  const int n = static_cast<int>(crops.size());
-  std::vector<PithResult> out(crops.size());
+  assert(static_cast<size_t>(crops.size()) == z.size() && z.size() == track.size());
+  const int n = crops.size();
+  std::vector<PithResult> out(static_cast<size_t>(n));
   const int half = slices_within(geometry, refine.average_half_window_mm, refine.max_half_slices);
   const int every = slice_step(geometry, refine.refine_spacing_mm);
   const int threads = std::clamp(refine.threads, 1, 64);
@@ -443,17 +450,19 @@ std::vector<PithResult> refine_pith_track(
   };
   // The wood level of every crop an average takes in, around the track, once (each crop is in
   // the averages of several refined slices).
-  std::vector<char> needed(crops.size(), 0);
+  std::vector<char> needed(static_cast<size_t>(n), 0);
   for (int i = 0; i < n; ++i)
     if (refined(i))
       for (int j = std::max(0, i - half); j <= std::min(n - 1, i + half); ++j) needed[j] = 1;
-  std::vector<Level> levels(crops.size());
+  std::vector<Level> levels(static_cast<size_t>(n));
   const double lrx = kLevelRadiusMm / geometry.spacing_x, lry = kLevelRadiusMm / geometry.spacing_y;
   std::atomic<int> next{0};
   auto level_work = [&] {
     for (int j = next++; j < n; j = next++) {
-      const SliceCrop& m = crops[static_cast<size_t>(j)];
-      if (!needed[j] || m.hu.empty()) continue;
+      if (!needed[j]) continue;
+      const std::shared_ptr<const SliceCrop> mj = crops.get(j);
+      const SliceCrop& m = *mj;
+      if (m.hu.empty()) continue;
       levels[static_cast<size_t>(j)] = wood_level(
           m.hu.data(), m.width, m.height, track[j].x / geometry.spacing_x - m.x0,
           track[j].y / geometry.spacing_y - m.y0, lrx, lry, m.wood_min_hu, m.wood_max_hu);
@@ -604,6 +613,80 @@ std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
       (*outlier)[i] = raw[i].found && (prior_w[i] <= 0 || robust[i] <= 0);
   }
   return fit;
+}
+
+// A few dozen crops read back, most recently used first.
+struct CropStore::Cache {
+  std::mutex mutex;
+  std::list<std::pair<int, std::shared_ptr<const SliceCrop>>> order;
+  std::unordered_map<int, decltype(order)::iterator> where;
+  static constexpr size_t kHeld = 48;
+};
+
+CropStore::CropStore(int slices, std::size_t memory_bytes)
+    : entries_(static_cast<size_t>(std::max(0, slices))),
+      budget_(memory_bytes),
+      cache_(std::make_unique<Cache>()) {}
+
+CropStore::~CropStore() {
+  if (file_) std::fclose(file_);
+}
+
+void CropStore::put(int i, SliceCrop crop) {
+  Entry& e = entries_[static_cast<size_t>(i)];
+  const std::size_t bytes = crop.hu.size() * sizeof(std::int16_t);
+  if (bytes > 0 && in_memory_ + bytes > budget_) {
+    if (!file_) file_ = std::tmpfile();  // removed when closed, or when the process ends
+    if (file_) {
+      const std::int64_t at = static_cast<std::int64_t>(spilled_);
+      if (::pwrite(fileno(file_), crop.hu.data(), bytes, static_cast<off_t>(at)) ==
+          static_cast<ssize_t>(bytes)) {
+        e.offset = at;
+        spilled_ += bytes;
+        crop.hu.clear();
+        crop.hu.shrink_to_fit();
+        e.meta = std::move(crop);
+        return;
+      }
+    }
+  }
+  in_memory_ += bytes;
+  e.held = std::make_shared<const SliceCrop>(std::move(crop));
+}
+
+std::shared_ptr<const SliceCrop> CropStore::get(int i) const {
+  const Entry& e = entries_[static_cast<size_t>(i)];
+  if (e.offset < 0) {
+    if (e.held) return e.held;
+    static const std::shared_ptr<const SliceCrop> kNone = std::make_shared<const SliceCrop>();
+    return kNone;
+  }
+  Cache& c = *cache_;
+  {
+    std::lock_guard<std::mutex> lock(c.mutex);
+    auto it = c.where.find(i);
+    if (it != c.where.end()) {
+      c.order.splice(c.order.begin(), c.order, it->second);
+      return it->second->second;
+    }
+  }
+  auto crop = std::make_shared<SliceCrop>(e.meta);
+  crop->hu.resize(static_cast<size_t>(crop->width) * crop->height);
+  const std::size_t bytes = crop->hu.size() * sizeof(std::int16_t);
+  if (::pread(fileno(file_), crop->hu.data(), bytes, static_cast<off_t>(e.offset)) !=
+      static_cast<ssize_t>(bytes))
+    crop->hu.clear();  // unreadable: as if the slice had no crop
+  std::shared_ptr<const SliceCrop> out = std::move(crop);
+  std::lock_guard<std::mutex> lock(c.mutex);
+  if (c.where.find(i) == c.where.end()) {
+    c.order.emplace_front(i, out);
+    c.where[i] = c.order.begin();
+    while (c.order.size() > Cache::kHeld) {
+      c.where.erase(c.order.back().first);
+      c.order.pop_back();
+    }
+  }
+  return out;
 }
 
 }  // namespace sawyer::ct

@@ -19,6 +19,7 @@
 // slice (32 KB at 0.8 mm) and the per-slice results.
 #pragma once
 
+#include <cstddef>
 #include <functional>
 #include <limits>
 #include <vector>
@@ -82,6 +83,9 @@ struct StemScanOptions {
   // pass reads these instead of the scan a second time.
   LogVolume* volume = nullptr;
   double volume_margin_mm = 20.0;
+  // The pith crops of every slice (pith_track.h CropStore) held in memory up to this; the rest
+  // go to a temporary file until the track is refined.
+  std::size_t crop_memory_bytes = std::size_t{32} << 20;
 };
 
 struct StemSliceRecord {
@@ -150,6 +154,7 @@ struct StemScan {
   int pith_full_searches = 0;  // slices searched whole by the first track (lost or first)
   int pith_refinements = 0;    // ring-profile refinements, all passes
   int pith_refine_passes = 0;
+  std::size_t crop_bytes_in_memory = 0, crop_bytes_spilled = 0;  // the pith crops (CropStore)
   // Stem values replaced because they left their neighbours along z (a chain on the log, a bad
   // slice): outer radius and heartwood, in azimuth samples.
   int outline_z_outliers = 0, heartwood_z_outliers = 0;

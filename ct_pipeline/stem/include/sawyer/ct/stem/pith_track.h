@@ -23,6 +23,8 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
+#include <cstdio>
+#include <memory>
 #include <vector>
 
 #include "sawyer/core/vec.h"
@@ -92,6 +94,40 @@ struct SliceCrop {
   // HU rounded to 16 bits (half the memory of floats: the crops of every slice are held until
   // the pith track is refined; CT numbers are whole HU in DICOM anyway).
   std::vector<std::int16_t> hu;
+};
+
+// The crops of every slice, held until the pith track is refined: in memory up to a budget, the
+// rest in an unlinked temporary file read back on demand (the last few dozen read are held), so
+// that a long or finely sampled scan's crops (0.4 mm pixels, 2 mm apart: 50 MB a metre) do not
+// grow the process with the log's length.
+//
+//   CropStore crops(n, 32 << 20);
+//   crops.put(i, std::move(crop));                       // each slice once, from one thread
+//   std::shared_ptr<const SliceCrop> c = crops.get(i);   // any thread; stays valid while held
+class CropStore {
+ public:
+  explicit CropStore(int slices = 0, std::size_t memory_bytes = static_cast<std::size_t>(-1));
+  ~CropStore();
+  CropStore(const CropStore&) = delete;
+  CropStore& operator=(const CropStore&) = delete;
+  int size() const { return static_cast<int>(entries_.size()); }
+  // Kept in memory while within the budget (or when the temporary file cannot be written).
+  void put(int i, SliceCrop crop);
+  std::shared_ptr<const SliceCrop> get(int i) const;
+  std::size_t bytes_in_memory() const { return in_memory_; }
+  std::size_t bytes_spilled() const { return spilled_; }
+
+ private:
+  struct Entry {
+    std::shared_ptr<const SliceCrop> held;  // in memory (or the metadata of an empty crop)
+    SliceCrop meta;                         // spilled: everything but the pixels
+    std::int64_t offset = -1;               // spilled: where the pixels are in the file
+  };
+  std::vector<Entry> entries_;
+  std::size_t budget_, in_memory_ = 0, spilled_ = 0;
+  std::FILE* file_ = nullptr;
+  struct Cache;
+  std::unique_ptr<Cache> cache_;
 };
 
 // One slice whose pith has been decided: the slice itself (as pushed, not averaged), the raw
@@ -174,7 +210,7 @@ struct PithRefineOptions {
 // `crops`, `z` and `track` have one entry per slice; slices with an empty crop are not found,
 // nor those `which` (when given) marks false.
 std::vector<PithResult> refine_pith_track(
-    const std::vector<SliceCrop>& crops, const std::vector<double>& z,
+    const CropStore& crops, const std::vector<double>& z,
     const std::vector<Vec2>& track, const VolumeGeometry& geometry, const PithOptions& options,
     const PithRefineOptions& refine, const std::vector<std::vector<double>>* outlines = nullptr,
     const std::vector<bool>* which = nullptr);
