@@ -63,6 +63,8 @@ void print_summary(const ct::RunOutcome& run, bool no_report) {
   std::printf("time:");
   for (const auto& s : run.stages) std::printf(" %s %.2f s,", s.name.c_str(), s.seconds);
   std::printf(" total %.2f s\n", run.seconds);
+  std::printf("memory: peak %.0f MB; planned %s\n", ct::peak_rss_mb(),
+              run.scan.memory.describe().c_str());
   if (!run.db.empty()) std::printf("register: %s\n", run.db.string().c_str());
   std::printf("%s\n", ct::qa_report(log.qa.value_or(ScanQa{})).c_str());
   if (!no_report)
@@ -144,6 +146,11 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_flag("--no-report", c->job.no_report, "scan and saw only");
   cmd->add_option("--threads", c->job.scan.threads, "worker threads, 1-256 (default: all cores)")
       ->check(CLI::Range(1, 256));
+  cmd->add_option("--memory", c->job.scan.memory_mb,
+                  "memory budget, MB: the run fits into it (narrower knot windows, pith crops on "
+                  "disk) or is refused before the scan is read")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->add_flag("-q,--quiet", c->quiet, "no progress on stderr");
   add_ct_options(cmd, c->ct);
   cmd->callback([c, &run_out] {

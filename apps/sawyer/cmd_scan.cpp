@@ -49,8 +49,9 @@ int run_scan(const ScanCli& c) {
   Status st = write_dir_atomic(
       c.output, [&](const fs::path& tmp) { return ct::write_scan_files(job.value(), c.job, tmp); });
   if (!st) return fail(st.error());
-  std::printf("%s\nwrote %s\n", ct::scan_brief(job.value().scan, c.job.input).c_str(),
-              c.output.c_str());
+  std::printf("%s\nmemory: peak %.0f MB; planned %s\nwrote %s\n",
+              ct::scan_brief(job.value().scan, c.job.input).c_str(), ct::peak_rss_mb(),
+              job.value().memory.describe().c_str(), c.output.c_str());
   if (std::string z = ct::resampling_summary(job.value().source->geometry()); !z.empty())
     std::printf("note: %s\n", z.c_str());
   // A scan whose QA verdict fails is written whole, and says so: exit 3 (README).
@@ -77,6 +78,11 @@ void add_scan_command(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--id", c->job.id, "log id (default: the scan's folder name)");
   cmd->add_option("--threads", c->job.threads, "worker threads, 1-256 (default: all cores)")
       ->check(CLI::Range(1, 256));
+  cmd->add_option("--memory", c->job.memory_mb,
+                  "memory budget, MB: the scan fits into it (narrower knot windows, pith crops on "
+                  "disk) or is refused before a slice is read")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->add_option("--qa-slices", c->job.qa_slices, "how many slices to draw in qa/")
       ->capture_default_str();
   add_ct_options(cmd, c->ct);

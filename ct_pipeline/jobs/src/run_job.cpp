@@ -167,8 +167,10 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
 
   std::vector<Stage>& stages = run->stages;
   auto t = Clock::now();
+  ScanJobOptions scan_options = c.scan;
+  scan_options.report_mb = c.no_report ? 0.0 : kReportMemoryMb;
   Result<ScanJob> scanned = scan_ct(
-      c.scan,
+      scan_options,
       [&](const char* stage, int done, int total) {
         if (std::string(stage) == "stem")
           update("scan", done, total, "slices");
@@ -179,7 +181,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   if (!scanned) return scanned.error();
   run->scan = std::move(scanned.value());
   const ScanJob& scan = run->scan;
-  stages.push_back({"scan", since(t)});
+  stages.push_back({"scan", since(t), peak_rss_mb()});
   const LogModel& log = scan.log();
   run->summary = summarize(log);
   stage_done("scan", stages.back().seconds,
@@ -191,7 +193,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   if (!sawn) return sawn.error().with_context(log.id);
   run->sawn.emplace(std::move(sawn.value()));
   const sawing::SawingOutcome& out = run->outcome();
-  stages.push_back({"saw", since(t)});
+  stages.push_back({"saw", since(t), peak_rss_mb()});
   stage_done(
       "saw", stages.back().seconds,
       note_text("%d positions, %zu boards", out.opt.positions, out.chosen_sawn().boards.size()));
@@ -241,8 +243,9 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
     }
     if (Status w = extras.get(); !w) return w;
     // run.json again with the times of the work done since (the report shows scan and saw).
-    stages.push_back({"write", write_seconds});
-    if (!c.no_report) stages.push_back({"report", report_seconds});
+    // write and report ran side by side: the peak by their end is both's.
+    stages.push_back({"write", write_seconds, peak_rss_mb()});
+    if (!c.no_report) stages.push_back({"report", report_seconds, peak_rss_mb()});
     if (Status w = report::write_run_file(run_record(c, scan, source, checksum, date, stages),
                                           tmp / "run.json");
         !w)

@@ -33,6 +33,11 @@ Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
   o.id = c.id.empty() ? name : c.id;
   o.species = c.species;
   o.source_name = name;
+  Result<MemoryPlan> plan =
+      plan_memory(job.source->geometry(), c.threads, c.memory_mb, c.report_mb);
+  if (!plan) return plan.error().with_context(c.input);
+  job.memory = plan.value();
+  job.memory.apply(&o);
   auto scan = scan_log(*job.source, o, progress);
   if (!scan) return scan.error().with_context(c.input);
   job.scan = std::move(scan.value());

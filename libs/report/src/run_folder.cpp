@@ -54,9 +54,11 @@ Result<RunInfo> parse_run(const Json& j) {
   if (auto st = j.find("stages"); st != j.end() && st->is_array())
     for (const Json& s : *st)
       if (s.is_object())
-        r.stages.push_back({opt_string(s, "name"), s.contains("seconds") && s["seconds"].is_number()
-                                                       ? s["seconds"].get<double>()
-                                                       : -1.0});
+        r.stages.push_back(
+            {opt_string(s, "name"),
+             s.contains("seconds") && s["seconds"].is_number() ? s["seconds"].get<double>() : -1.0,
+             s.contains("peak_mb") && s["peak_mb"].is_number() ? s["peak_mb"].get<double>()
+                                                               : -1.0});
   return r;
 }
 
@@ -98,8 +100,11 @@ std::string run_json_text(const RunRecord& run) {
                   {"prices", in.prices},
                   {"position", in.position}};
   Ordered st = Ordered::array();
-  for (const RunInfo::Stage& s : in.stages)
-    st.push_back({{"name", s.name}, {"seconds", s.seconds}});
+  for (const RunInfo::Stage& s : in.stages) {
+    Ordered o = {{"name", s.name}, {"seconds", s.seconds}};
+    if (s.peak_mb >= 0) o["peak_mb"] = std::round(s.peak_mb * 10) / 10;
+    st.push_back(o);
+  }
   j["stages"] = st;
   return j.dump(1) + "\n";
 }

@@ -36,6 +36,7 @@ struct RunInfo {
   struct Stage {
     std::string name;
     double seconds = -1;
+    double peak_mb = -1;  // the process's peak resident memory by the stage's end (-1: unknown)
   };
   std::vector<Stage> stages;
 };

@@ -14,6 +14,7 @@
 
 #include "sawyer/core/result.h"
 #include "sawyer/ct/io/slice_source.h"
+#include "sawyer/ct/scan/memory_plan.h"
 #include "sawyer/ct/scan/scan_log.h"
 
 namespace sawyer::ct {
@@ -23,11 +24,16 @@ struct ScanJobOptions {
   OpenOptions open;                            // series, spacings, rescale, the z policy
   int threads = 0;                             // 0: every core
   int qa_slices = 4;                           // cross-sections in qa/
+  // The memory budget, MB (memory_plan.h): the scan is fitted into it or refused before a
+  // slice is read. report_mb: what the caller will add after the scan (`sawyer run`'s report).
+  double memory_mb = kDefaultMemoryBudgetMb;
+  double report_mb = 0;
 };
 
 struct ScanJob {
   std::unique_ptr<SliceSource> source;  // kept open: the QA images read a few slices again
   ScanResult scan;
+  MemoryPlan memory;  // the plan the scan ran under
   const LogModel& log() const { return scan.log; }
   bool trusted() const { return scan.qa.verdict.trusted; }
 };
@@ -36,7 +42,8 @@ struct ScanJob {
 // Errors name the input.
 Result<std::unique_ptr<SliceSource>> open_scan(const ScanJobOptions& options);
 
-// Analyses the scan opened by open_scan(). Errors name the input and the problem.
+// Analyses the scan opened by open_scan(). Errors name the input and the problem; a scan that
+// cannot be done within options.memory_mb is refused before any slice is read.
 Result<ScanJob> scan_ct(const ScanJobOptions& options, const ScanProgress& progress,
                         std::unique_ptr<SliceSource> opened);
 
