@@ -151,5 +151,48 @@ TEST(KnotScan, ClearLogYieldsNoKnots) {
   EXPECT_EQ(kept.value().volume->bytes(), kept.value().voxel_bytes);
 }
 
+// The streamed knot pass (the scan read again in windows along the log) against the kept
+// volume's single grid, on 80 cm of the real spruce cut into windows of 15 cm (plus 17 cm
+// margins): two implementations of one pass, the same knots and the same QA views.
+TEST(KnotScan, StreamedWindowsFindTheKnotsTheKeptVolumeFinds) {
+  const LogModel log = test::sample_model("gran1_spruce");
+  PhantomOptions o;
+  o.from_mm = 1602.5;
+  o.to_mm = 2397.5;
+  o.seed = 5;
+  auto ph = Phantom::create(log, o);
+  ASSERT_TRUE(ph.ok()) << ph.error().message();
+  PhantomSource src(*ph.value(), true);
+  ScanOptions kept_o;
+  kept_o.keep_volume = true;
+  auto kept = scan_log(src, kept_o);
+  ASSERT_TRUE(kept.ok()) << kept.error().message();
+  ScanOptions streamed_o;
+  streamed_o.knots.window.core_mm = 150;
+  auto streamed = scan_log(src, streamed_o);
+  ASSERT_TRUE(streamed.ok()) << streamed.error().message();
+  EXPECT_EQ(kept.value().knots.detect.windows, 1);
+  EXPECT_GE(streamed.value().knots.detect.windows, 4);
+  EXPECT_EQ(streamed.value().volume, nullptr);
+  EXPECT_LT(streamed.value().voxel_bytes, kept.value().voxel_bytes / 2)
+      << "a window's grid is a fraction of the whole log's voxels";
+  const std::vector<Knot>& a = kept.value().knots.knots;
+  const std::vector<Knot>& b = streamed.value().knots.knots;
+  ASSERT_GE(a.size(), 10u) << "the section holds the real log's knots";
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(a[i].height_at(40), b[i].height_at(40), 0.5) << "knot " << a[i].id;
+    EXPECT_NEAR(angle_diff(a[i].azimuth_at(40), b[i].azimuth_at(40)), 0.0, 0.01)
+        << "knot " << a[i].id;
+    EXPECT_NEAR(a[i].r_end, b[i].r_end, 1.0) << "knot " << a[i].id;
+    EXPECT_NEAR(a[i].max_diameter(), b[i].max_diameter(), 0.5) << "knot " << a[i].id;
+  }
+  // The unrolled views inside the log: the same voxels, whether kept or read again.
+  const UnrolledView& va = kept.value().unrolled.front();
+  const UnrolledView& vb = streamed.value().unrolled.front();
+  ASSERT_EQ(va.grey.size(), vb.grey.size());
+  EXPECT_EQ(va.grey, vb.grey) << "r " << va.r_mm;
+}
+
 }  // namespace
 }  // namespace sawyer::ct

@@ -7,9 +7,10 @@
 //   if (!plan) ...                        // "needs about 912 MB ..., over the budget of 600 MB"
 //   plan.value().apply(&scan_options);    // the knot windows and the crops' share
 //
-// What grows with the log is only the slices' records (~6.5 KB a slice) and the part of the
-// pith crops kept in memory (capped); the rest is the slice size times a fixed count of slices
-// in flight, and one knot window (KnotWindowOptions, ~1.3 m of log).
+// What grows with the log is only the slices' records and the stem built from them (~32 KB a
+// slice: 6.5 MB a metre at 5 mm, 32 MB at 1 mm) and the part of the pith crops kept in memory
+// (capped at 32 MB); the rest is the slice size times a fixed count of slices in flight, and
+// one knot window (KnotWindowOptions, ~1.3 m of log).
 #pragma once
 
 #include <cstddef>

@@ -10,8 +10,10 @@
 //   r.value().qa.verdict   // also in log.qa
 //   write_scan_qa_images(r.value(), *src.value(), dir / "qa", 4);
 //
-// The stem pass keeps the log's voxels (cropped around the first pith track) for the knot pass,
-// so the source is read once (and a few slices again for the QA images).
+// The stem pass reads the scan once; the knot pass reads it again, window by window along the
+// log (knot_detect.h KnotWindowOptions), and takes the QA's unrolled views on the way, so that
+// no stage holds the log's voxels (ScanOptions::keep_volume keeps them, for tools and tests, and
+// runs the knot pass on them in one window). memory_plan.h sizes the windows for a budget.
 #pragma once
 
 #include <cstddef>
