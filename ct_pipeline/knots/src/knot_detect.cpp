@@ -1352,12 +1352,29 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
   int visited = -1;
   double weight = 0;
   KnotDetectSummary mean;  // signal figures, weighted by the windows' own slices
+  // The rows the next window shares with this one, unrolled already (HU, before contrast): the
+  // overlap is neither read nor unrolled twice.
+  int carried_from = 0, carried_nr = 0;
+  std::vector<std::int16_t> carried;
   for (size_t wi = 0; wi < windows.size(); ++wi) {
     const Window& w = windows[wi];
     auto t0 = Clock::now();
     Grid g = make_grid(geo, w.read_begin, w.read_end, stem, options, threads, kept);
     g.core_lo = w.core_begin - w.read_begin, g.core_hi = w.core_end - w.read_begin;
-    for (int i = w.read_begin; i < w.read_end;) {
+    // Shells beyond the outline are never sampled, and both grids reach every slice's outline.
+    int i = w.read_begin;
+    const int carried_end =
+        carried_nr > 0
+            ? std::min(w.read_end, carried_from + static_cast<int>(carried.size() /
+                                                                   (static_cast<size_t>(carried_nr) * g.nw)))
+            : carried_from;
+    for (; i < carried_end && i >= carried_from; ++i) {
+      const int nr = std::min(g.nr, carried_nr);
+      for (int j = 0; j < nr; ++j)
+        std::copy_n(&carried[(static_cast<size_t>(i - carried_from) * carried_nr + j) * g.nw], g.nw,
+                    &g.hu[g.at(i - w.read_begin, j, 0)]);
+    }
+    while (i < w.read_end) {
       int m = 0;
       const auto tr = Clock::now();
       for (; i < w.read_end && m < batch; ++i) {
@@ -1377,6 +1394,12 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
             visited = at[static_cast<size_t>(b)];
             visit(visited, slices[static_cast<size_t>(b)]);
           }
+    }
+    if (wi + 1 < windows.size()) {
+      carried_from = std::max(w.read_begin, windows[wi + 1].read_begin);
+      carried_nr = g.nr;
+      carried.assign(g.hu.begin() + static_cast<std::ptrdiff_t>(g.at(carried_from - w.read_begin, 0, 0)),
+                     g.hu.end());
     }
     KnotDetectSummary ws;
     ws.unroll_s = std::chrono::duration<double>(Clock::now() - t0).count();
