@@ -19,9 +19,9 @@ namespace fs = std::filesystem;
 // The scan stage's peak memory (MB) of `sawyer run` on `ct`, from its run.json.
 double scan_peak_mb(const fs::path& ct, const fs::path& out) {
   std::string text;
-  const int rc = test::run_sawyer("run " + test::quoted(ct) + " -o " + test::quoted(out) +
-                                      " --no-report --no-register -q",
-                                  &text);
+  const int rc = test::run_sawyer(
+      "run " + test::quoted(ct) + " -o " + test::quoted(out) + " --no-report --no-register -q",
+      &text);
   EXPECT_TRUE(rc == 0 || rc == 3) << text;  // 3: written, QA verdict failed (coarse pixels)
   std::ifstream in(out / "run.json");
   EXPECT_TRUE(in.good()) << text;
@@ -46,15 +46,13 @@ TEST(ScanMemory, PeakDoesNotGrowWithTheLogsLength) {
                              &text),
             0)
       << text;
-  ASSERT_EQ(test::run_sawyer("phantom " + test::quoted(log) + " -o " + test::quoted(long_ct) +
-                                 common,
-                             &text),
+  ASSERT_EQ(test::run_sawyer(
+                "phantom " + test::quoted(log) + " -o " + test::quoted(long_ct) + common, &text),
             0)
       << text;
   const double p1 = scan_peak_mb(short_ct, dir.path() / "run1");
   const double p4 = scan_peak_mb(long_ct, dir.path() / "run4");
-  std::printf("scan peak: 1 m %.1f MB, 4 m %.1f MB (%.1f MB per metre)\n", p1, p4,
-              (p4 - p1) / 3.0);
+  std::printf("scan peak: 1 m %.1f MB, 4 m %.1f MB (%.1f MB per metre)\n", p1, p4, (p4 - p1) / 3.0);
   ASSERT_GT(p1, 0);
   ASSERT_GT(p4, 0);
   EXPECT_LT(p4 / p1, 1.25);
@@ -65,11 +63,10 @@ TEST(ScanMemory, ABudgetTooSmallIsRefusedUpFrontNamingTheFigure) {
   test::TempDir dir;
   const fs::path ct = dir.path() / "ct", out = dir.path() / "run";
   std::string text;
-  ASSERT_EQ(test::run_sawyer("phantom " +
-                                 test::quoted(test::sample_log("gran1_spruce") / "log.json") +
-                                 " -o " + test::quoted(ct) +
-                                 " --size 128 --pixel-mm 3.2 --from-mm 1000 --to-mm 1200",
-                             &text),
+  ASSERT_EQ(test::run_sawyer(
+                "phantom " + test::quoted(test::sample_log("gran1_spruce") / "log.json") + " -o " +
+                    test::quoted(ct) + " --size 128 --pixel-mm 3.2 --from-mm 1000 --to-mm 1200",
+                &text),
             0)
       << text;
   EXPECT_NE(test::run_sawyer("run " + test::quoted(ct) + " -o " + test::quoted(out) +

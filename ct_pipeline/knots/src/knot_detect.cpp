@@ -139,7 +139,9 @@ struct PlaneRef {
   float at(size_t idx) const { return q ? q[idx] : quantise_hu(f[idx]); }
 };
 
-PlaneRef plane_ref(const LogPlane& p) { return {p.hu.data(), nullptr, p.x0, p.y0, p.width, p.height}; }
+PlaneRef plane_ref(const LogPlane& p) {
+  return {p.hu.data(), nullptr, p.x0, p.y0, p.width, p.height};
+}
 PlaneRef plane_ref(const Slice& s) { return {nullptr, s.hu.data(), 0, 0, s.width, s.height}; }
 
 // The grid of slices [a, b) of `geo` with everything but the samples: the outline and wood
@@ -1127,7 +1129,6 @@ std::vector<KnotTrace> merge_pieces(std::vector<KnotTrace> traces) {
   return out;
 }
 
-
 // Steps 2 to 7 on an unrolled grid (slices with no log are all kInvalid): the traces, ordered,
 // and what was done in *sum (the unroll's time is the caller's).
 std::vector<KnotTrace> detect_in_grid(Grid& g, const Stem& stem, const KnotDetectOptions& options,
@@ -1282,7 +1283,6 @@ std::vector<KnotTrace> detect_knots(const LogVolume& volume, const Stem& stem,
   return out;
 }
 
-
 namespace {
 // Slices [read_begin, read_end) read for a window whose own slices are [core_begin, core_end).
 struct Window {
@@ -1365,8 +1365,9 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
     int i = w.read_begin;
     const int carried_end =
         carried_nr > 0
-            ? std::min(w.read_end, carried_from + static_cast<int>(carried.size() /
-                                                                   (static_cast<size_t>(carried_nr) * g.nw)))
+            ? std::min(w.read_end,
+                       carried_from + static_cast<int>(carried.size() /
+                                                       (static_cast<size_t>(carried_nr) * g.nw)))
             : carried_from;
     for (; i < carried_end && i >= carried_from; ++i) {
       const int nr = std::min(g.nr, carried_nr);
@@ -1398,8 +1399,9 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
     if (wi + 1 < windows.size()) {
       carried_from = std::max(w.read_begin, windows[wi + 1].read_begin);
       carried_nr = g.nr;
-      carried.assign(g.hu.begin() + static_cast<std::ptrdiff_t>(g.at(carried_from - w.read_begin, 0, 0)),
-                     g.hu.end());
+      carried.assign(
+          g.hu.begin() + static_cast<std::ptrdiff_t>(g.at(carried_from - w.read_begin, 0, 0)),
+          g.hu.end());
     }
     KnotDetectSummary ws;
     ws.unroll_s = std::chrono::duration<double>(Clock::now() - t0).count();

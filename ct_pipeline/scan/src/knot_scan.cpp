@@ -61,9 +61,8 @@ Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
   return out;
 }
 
-Result<KnotScan> scan_knots(SliceSource& source, const Stem& stem,
-                            const std::vector<char>* has_log, const KnotScanOptions& options,
-                            const KnotSliceVisitor& visit) {
+Result<KnotScan> scan_knots(SliceSource& source, const Stem& stem, const std::vector<char>* has_log,
+                            const KnotScanOptions& options, const KnotSliceVisitor& visit) {
   const auto t0 = Clock::now();
   KnotScan out;
   if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");

@@ -65,8 +65,8 @@ Result<MemoryPlan> plan_memory(const VolumeGeometry& g, int threads, double budg
   p.slices_mb = (4.0 * threads + 6) * slice_mb;
   p.records_mb = n * kRecordBytes / kMb;
   const double sx = g.spacing_x > 0 ? g.spacing_x : 1, sy = g.spacing_y > 0 ? g.spacing_y : 1;
-  const double crop_mb = (2 * std::floor(kCropHalfMm / sx) + 1) *
-                         (2 * std::floor(kCropHalfMm / sy) + 1) * 2.0 / kMb;
+  const double crop_mb =
+      (2 * std::floor(kCropHalfMm / sx) + 1) * (2 * std::floor(kCropHalfMm / sy) + 1) * 2.0 / kMb;
   const double all_crops_mb = n * crop_mb;
   // The log's radius is not known yet: the field of view's.
   const double r_max = 0.5 * std::min(g.width * sx, g.height * sy);
@@ -86,12 +86,11 @@ Result<MemoryPlan> plan_memory(const VolumeGeometry& g, int threads, double budg
   p.crops_spilled_mb = all_crops_mb - p.crops_mb;
   p.crop_memory_bytes = static_cast<std::size_t>(p.crops_mb * kMb);
   if (p.total_mb() > budget_mb)
-    return Error("memory budget",
-                 "this scan needs at least " +
-                     std::to_string(static_cast<int>(std::lround(p.total_mb()))) + " MB (" +
-                     p.parts() + "), over the budget of " +
-                     std::to_string(static_cast<int>(std::lround(budget_mb))) +
-                     " MB (--memory): give it more, or fewer threads");
+    return Error("memory budget", "this scan needs at least " +
+                                      std::to_string(static_cast<int>(std::lround(p.total_mb()))) +
+                                      " MB (" + p.parts() + "), over the budget of " +
+                                      std::to_string(static_cast<int>(std::lround(budget_mb))) +
+                                      " MB (--memory): give it more, or fewer threads");
   return p;
 }
 

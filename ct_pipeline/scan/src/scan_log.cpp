@@ -34,7 +34,8 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
     if (out.volume) {
       knots = scan_knots(*out.volume, out.stem.stem, ko);
       out.voxel_bytes = out.volume->bytes();
-      for (double r : view_radii) out.unrolled.push_back(unroll_view(*out.volume, out.stem.stem, r));
+      for (double r : view_radii)
+        out.unrolled.push_back(unroll_view(*out.volume, out.stem.stem, r));
     } else {
       // The slices the stem pass found the log's outline on (those it would have kept).
       std::vector<char> has_log(out.stem.slices.size(), 0);
@@ -59,7 +60,8 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
     out.knots = std::move(knots.value());
     if (progress) progress("knots", 1, 1);
   } else {
-    for (double r : view_radii) out.unrolled.push_back(UnrolledViewBuilder(src.geometry(), out.stem.stem, r).take());
+    for (double r : view_radii)
+      out.unrolled.push_back(UnrolledViewBuilder(src.geometry(), out.stem.stem, r).take());
   }
   if (!options.keep_volume) out.volume.reset();
   out.qa =
@@ -88,16 +90,19 @@ std::string scan_brief(const ScanResult& scan, const std::string& input) {
   int outliers = 0;
   for (const auto& r : s.slices) outliers += r.pith_outlier;
   char line[1024];
-  std::snprintf(line, sizeof line,
-                "scanned %s: %zu slices in %.2f s, %.0f slices/s on %d threads; stem %d samples "
-                "of %.1f mm%s; %d refined piths rejected as outliers; %zu knots in %.2f s "
-                "(detection %.2f s: unroll %.2f, contrast %.2f, segment %.2f, track %.2f, follow %.2f; "
-                "fits %.2f s; %zu candidates not fitted)",
-                input.c_str(), s.slices.size(), s.seconds, s.slices_per_second(), s.threads,
-                s.stem.slice_count(), s.stem.dz_mm,
-                s.stem.heartwood.empty() ? "" : " with heartwood", outliers, ks.knots.size(),
-                ks.seconds, ks.seconds_detect, ks.detect.unroll_s, ks.detect.contrast_s, ks.detect.segment_s,
-                ks.detect.track_s, ks.detect.follow_s, ks.seconds_fit, ks.rejected.size());
+  std::snprintf(
+      line, sizeof line,
+      "scanned %s: %zu slices in %.2f s, %.0f slices/s on %d threads; stem %d samples "
+      "of %.1f mm%s; %d refined piths rejected as outliers; %zu knots in %.2f s "
+      "(detection %.2f s in %d window%s: unroll %.2f, contrast %.2f, segment %.2f, track %.2f, "
+      "follow %.2f; "
+      "fits %.2f s; %zu candidates not fitted)",
+      input.c_str(), s.slices.size(), s.seconds, s.slices_per_second(), s.threads,
+      s.stem.slice_count(), s.stem.dz_mm, s.stem.heartwood.empty() ? "" : " with heartwood",
+      outliers, ks.knots.size(), ks.seconds, ks.seconds_detect, ks.detect.windows,
+      ks.detect.windows == 1 ? "" : "s", ks.detect.unroll_s, ks.detect.contrast_s,
+      ks.detect.segment_s, ks.detect.track_s, ks.detect.follow_s, ks.seconds_fit,
+      ks.rejected.size());
   return std::string(line) + "\n" + qa_headline(scan.qa.verdict);
 }
 

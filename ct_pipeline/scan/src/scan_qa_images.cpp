@@ -206,7 +206,8 @@ void UnrolledViewBuilder::fill(int i, const Sample& hu_at) {
     line[static_cast<size_t>(k)] =
         static_cast<std::uint8_t>(std::clamp((hu + 700.0) / 900.0 * 255.0, 0.0, 255.0));
   }
-  for (int row : rows) std::copy(line.begin(), line.end(), &view_.grey[static_cast<size_t>(row) * w]);
+  for (int row : rows)
+    std::copy(line.begin(), line.end(), &view_.grey[static_cast<size_t>(row) * w]);
 }
 
 void UnrolledViewBuilder::add(int i, const LogVolume& volume) {

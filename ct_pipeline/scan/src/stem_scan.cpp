@@ -250,8 +250,8 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
         rec.heartwood.present ? median_radius(rec.heartwood.radius, rec.heartwood.valid) : 0.0;
     const double reg = heart > 0 ? 0.9 * heart : 0.6 * radius[static_cast<size_t>(i)];
     region[static_cast<size_t>(i)] = reg;
-    streaks[static_cast<size_t>(i)] = knot_streaks(
-        *crop, g, shape[static_cast<size_t>(i)], reg, noise, options.whorl);
+    streaks[static_cast<size_t>(i)] =
+        knot_streaks(*crop, g, shape[static_cast<size_t>(i)], reg, noise, options.whorl);
     for (WhorlStreak& st : streaks[static_cast<size_t>(i)])
       st.centre_mm = st.centre_mm - shape[static_cast<size_t>(i)];
   }

@@ -1,6 +1,7 @@
 // Pith tracking along z and its robust smoothing (see pith_track.h).
 #include "sawyer/ct/stem/pith_track.h"
 
+#include <unistd.h>
 #include <algorithm>
 #include <atomic>
 #include <cassert>
@@ -9,7 +10,6 @@
 #include <list>
 #include <mutex>
 #include <thread>
-#include <unistd.h>
 #include <unordered_map>
 
 #include "sawyer/core/stats.h"
@@ -435,10 +435,9 @@ PithResult refine_one(const CropStore& crops, const std::vector<double>& z,
 }  // namespace
 
 std::vector<PithResult> refine_pith_track(
-    const CropStore& crops, const std::vector<double>& z,
-    const std::vector<Vec2>& track, const VolumeGeometry& geometry, const PithOptions& options,
-    const PithRefineOptions& refine, const std::vector<std::vector<double>>* outlines,
-    const std::vector<bool>* which) {
+    const CropStore& crops, const std::vector<double>& z, const std::vector<Vec2>& track,
+    const VolumeGeometry& geometry, const PithOptions& options, const PithRefineOptions& refine,
+    const std::vector<std::vector<double>>* outlines, const std::vector<bool>* which) {
   assert(static_cast<size_t>(crops.size()) == z.size() && z.size() == track.size());
   const int n = crops.size();
   std::vector<PithResult> out(static_cast<size_t>(n));

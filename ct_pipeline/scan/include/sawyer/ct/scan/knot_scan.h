@@ -24,7 +24,7 @@ struct KnotScanOptions {
   KnotDetectOptions detect;
   KnotFitOptions fit;
   KnotWindowOptions window;  // the streamed pass's windows along the log
-  int threads = 0;  // 0: hardware concurrency (detection and fits)
+  int threads = 0;           // 0: hardware concurrency (detection and fits)
   // Fitted knots whose largest diameter is below this are dropped (noise), mm.
   double min_diameter_mm = 4.0;
 };
@@ -46,8 +46,8 @@ struct KnotScan {
 Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
                             const KnotScanOptions& options = {});
 // Streamed: the scan read again in windows (detect_knots over a SliceSource, knot_detect.h).
-Result<KnotScan> scan_knots(SliceSource& source, const Stem& stem,
-                            const std::vector<char>* has_log, const KnotScanOptions& options = {},
+Result<KnotScan> scan_knots(SliceSource& source, const Stem& stem, const std::vector<char>* has_log,
+                            const KnotScanOptions& options = {},
                             const KnotSliceVisitor& visit = {});
 
 }  // namespace sawyer::ct

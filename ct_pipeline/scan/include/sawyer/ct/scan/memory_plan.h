@@ -36,9 +36,9 @@ struct MemoryPlan {
   // slices in flight (stem pass queue and tracker, or the knot pass's read batch), the pith
   // crops kept in memory, the slices' records, one knot window's grid, the report.
   double startup_mb = 0, slices_mb = 0, crops_mb = 0, records_mb = 0, knots_mb = 0, report_mb = 0;
-  KnotWindowOptions window;            // the knot pass's windows
-  std::size_t crop_memory_bytes = 0;   // the pith crops' share in memory
-  double crops_spilled_mb = 0;         // the rest, in a temporary file
+  KnotWindowOptions window;           // the knot pass's windows
+  std::size_t crop_memory_bytes = 0;  // the pith crops' share in memory
+  double crops_spilled_mb = 0;        // the rest, in a temporary file
   double total_mb() const {
     return startup_mb + slices_mb + crops_mb + records_mb + knots_mb + report_mb;
   }

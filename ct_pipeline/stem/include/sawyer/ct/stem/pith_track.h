@@ -21,10 +21,10 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
-#include <optional>
 #include <cstdio>
+#include <deque>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "sawyer/core/vec.h"
@@ -210,9 +210,9 @@ struct PithRefineOptions {
 // `crops`, `z` and `track` have one entry per slice; slices with an empty crop are not found,
 // nor those `which` (when given) marks false.
 std::vector<PithResult> refine_pith_track(
-    const CropStore& crops, const std::vector<double>& z,
-    const std::vector<Vec2>& track, const VolumeGeometry& geometry, const PithOptions& options,
-    const PithRefineOptions& refine, const std::vector<std::vector<double>>* outlines = nullptr,
+    const CropStore& crops, const std::vector<double>& z, const std::vector<Vec2>& track,
+    const VolumeGeometry& geometry, const PithOptions& options, const PithRefineOptions& refine,
+    const std::vector<std::vector<double>>* outlines = nullptr,
     const std::vector<bool>* which = nullptr);
 
 struct PithTrackOptions {
