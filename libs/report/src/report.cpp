@@ -150,6 +150,8 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
   Steps steps(8, progress, &files);
   Content c;
   c.run = &run;
+  // What the caller freed before (a run's scan) is given back before the renderer starts.
+  release_free_memory();
 
   steps.begin("renderer");
   Result<std::unique_ptr<render::GlContext>> ctx = render::create_headless_context();
