@@ -178,7 +178,10 @@ struct WoodRenderer::Impl {
   const LogModel* log = nullptr;
   RenderOptions options;
   std::unique_ptr<WoodField> field;
-  GpuLogData data;
+  GpuLogData data;       // its arrays emptied once uploaded (release_uploaded_arrays)
+  int pith_count = 0;    // data.pith.size() / 2 before that
+  KnotIndexStats stats;  // of the knot index, taken before that
+  void release_uploaded_arrays();
   // The wood program, and the same compiled without the extra samples (WOOD_ONE_SAMPLE) for
   // draws that take one sample a pixel: the viewer's moving frames, --supersample 1, the raw
   // field. llvmpipe runs the smaller program faster even where the samples' branch is not taken.
@@ -285,7 +288,7 @@ void WoodRenderer::Impl::set_uniforms(const Camera& cam, const Viewport& vp,
   const GpuLogData& d = data;
   glUniform1f(loc("u_pith_z0"), d.pith_z0);
   glUniform1f(loc("u_pith_step"), d.pith_step);
-  glUniform1i(loc("u_pith_count"), static_cast<GLint>(d.pith.size() / 2));
+  glUniform1i(loc("u_pith_count"), static_cast<GLint>(pith_count));
   glUniform1f(loc("u_stem_z0"), d.stem_z0);
   glUniform1f(loc("u_stem_step"), d.stem_step);
   glUniform1f(loc("u_stem_rows"), static_cast<float>(d.stem_rows));
@@ -463,6 +466,7 @@ Result<std::unique_ptr<WoodRenderer>> WoodRenderer::create(const LogModel& log,
   glEnableVertexAttribArray(1);
   glBindVertexArray(0);
   if (glGetError() != GL_NO_ERROR) return Error("OpenGL", "uploading the log's data failed");
+  impl->release_uploaded_arrays();
   return std::unique_ptr<WoodRenderer>(new WoodRenderer(std::move(impl)));
 }
 
@@ -559,17 +563,27 @@ void WoodRenderer::draw_plane(const PlaneRect& rect, const Viewport& viewport,
 const LogModel& WoodRenderer::log() const { return *impl_->log; }
 const RenderOptions& WoodRenderer::options() const { return impl_->options; }
 
-KnotIndexStats WoodRenderer::index_stats() const {
-  const GpuLogData& d = impl_->data;
-  KnotIndexStats s;
+// The GL buffers and textures hold the log's data once uploaded: the CPU copies go (megabytes
+// for a log with a few hundred knots), keeping the scalars the uniforms and queries read.
+void WoodRenderer::Impl::release_uploaded_arrays() {
+  const GpuLogData& d = data;
+  pith_count = static_cast<int>(d.pith.size() / 2);
+  KnotIndexStats& s = stats;
   s.cells = d.index.cells();
   s.entries = static_cast<long long>(d.cell_start.back());
   s.mean_per_cell = s.cells ? static_cast<double>(s.entries) / s.cells : 0;
   for (int c = 0; c < s.cells; ++c)
     s.max_per_cell = std::max(s.max_per_cell, d.cell_start[c + 1] - d.cell_start[c]);
   s.gpu_bytes = d.bytes();
-  return s;
+  data.pith = {};
+  data.stem = {};
+  data.knots = {};
+  data.tracks = {};
+  data.cell_start = {};
+  data.cell_knots = {};
 }
+
+KnotIndexStats WoodRenderer::index_stats() const { return impl_->stats; }
 
 Vec3 WoodRenderer::pith_point(double z) const {
   const Vec2 c = impl_->data.mean_pith;

@@ -4,6 +4,10 @@
 
 #include <chrono>
 #include <fstream>
+#include <optional>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include "documents.h"
 #include "figures.h"
@@ -24,6 +28,14 @@ Status write_bytes(const fs::path& path, const std::string& bytes) {
   f.close();
   if (!f) return Error(path.string(), "cannot write");
   return Status::Ok();
+}
+
+// Gives the pages of freed memory back to the system (glibc keeps them in its heap otherwise,
+// where the freed GL objects and models sat between later allocations).
+void release_free_memory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
 }
 
 // Times the steps and reports progress.
@@ -135,9 +147,11 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
   if (Status st = options.validate(); !st) return st.error();
   const auto t_all = Clock::now();
   ReportFiles files;
-  Steps steps(9, progress, &files);
+  Steps steps(8, progress, &files);
   Content c;
   c.run = &run;
+  // What the caller freed before (a run's scan) is given back before the renderer starts.
+  release_free_memory();
 
   steps.begin("renderer");
   Result<std::unique_ptr<render::GlContext>> ctx = render::create_headless_context();
@@ -149,7 +163,8 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
   render::WoodRenderer& r = *renderer.value();
 
   steps.begin("boards");
-  const sawing::SawLog saw_log(run.log);
+  std::optional<sawing::SawLog> saw_log_storage(std::in_place, run.log);
+  const sawing::SawLog& saw_log = *saw_log_storage;
   c.summary = summarize(run.log);
   c.boards = place_boards(run, saw_log);
   for (const BoardRecord& b : run.sawing.boards) {
@@ -161,7 +176,6 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
   // The rule set the grades were given by, to find the knots that decide them.
   Result<sawing::GradingRules> rules = grading_rules(run);
   if (!rules) c.grading_note = rules.error().message();
-  std::vector<SurfacePtr> strips;  // the detailed faces, until encoded
 
   steps.begin("end view");
   c.end_view_z = end_view_height(run);
@@ -207,8 +221,8 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
          {}});
     // The detailed strip: text and lines in proportion, no rings (the HTML page draws them).
     d.detail_px_per_cm = faces.value().px_per_mm * 10.0;
-    strips.push_back(compose_faces(faces.value(), d.detail_px_per_cm, d.detail_px_per_cm / 3.0,
-                                   d.marks, false, &d.strip));
+    const SurfacePtr strip = compose_faces(faces.value(), d.detail_px_per_cm,
+                                           d.detail_px_per_cm / 3.0, d.marks, false, &d.strip);
     std::snprintf(buf, sizeof buf, "board_%02zu_faces.jpg", i + 1);
     d.strip_file = buf;
     // The PDF's crops: the knots with the largest excess over their limit, at most four, each
@@ -220,11 +234,22 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
           {buf,
            "",
            d.marks[m].text,
-           crop_around(strips.back().get(), d.strip, faces.value().px_per_mm, d.marks[m], half),
+           crop_around(strip.get(), d.strip, faces.value().px_per_mm, d.marks[m], half),
            {}});
     }
+    // Encoded now and freed: the strips at the detail resolution are the largest images, and
+    // holding every board's until the end was the report's peak.
+    Result<std::string> jpg = encode_jpeg(strip.get(), options.jpeg_quality);
+    if (!jpg) return jpg.error().with_context(d.strip_file);
+    d.strip_jpeg = std::move(jpg).value();
     c.details.push_back(std::move(d));
   }
+  // The renderer, its GL context (llvmpipe's copies of the buffers and its compiled shaders)
+  // and the sawing model are not needed past the faces: freed before the plots and documents.
+  renderer.value().reset();
+  ctx.value().reset();
+  saw_log_storage.reset();
+  release_free_memory();
 
   steps.begin("plots");
   if (SurfacePtr vm = value_map(s, options.plot_width_px)) {
@@ -256,14 +281,6 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
       if (!png) return png.error().with_context(f.file);
       f.png = std::move(png).value();
     }
-
-  steps.begin("jpeg");
-  for (size_t i = 0; i < c.details.size(); ++i) {
-    Result<std::string> jpg = encode_jpeg(strips[i].get(), options.jpeg_quality);
-    if (!jpg) return jpg.error().with_context(c.details[i].strip_file);
-    c.details[i].strip_jpeg = std::move(jpg).value();
-  }
-  strips.clear();
 
   steps.begin("documents");
   Status st = write_dir_atomic(report_dir, [&](const fs::path& tmp) -> Status {
