@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -31,14 +30,14 @@ Drawn wood(Vec2 pith, double ring_hu, double noise_hu, unsigned seed) {
   d.crop.width = d.crop.height = kSize;
   d.crop.wood_min_hu = -800;
   d.crop.wood_max_hu = -200;
-  d.crop.hu.assign(static_cast<size_t>(kSize) * kSize, 0);
+  d.crop.hu.assign(static_cast<size_t>(kSize) * kSize, 0.f);
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, noise_hu);
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
       const double r = std::hypot(x * kPixel - pith.x, y * kPixel - pith.y);
-      d.crop.hu[static_cast<size_t>(y) * kSize + x] = static_cast<std::int16_t>(
-          std::lround(-500 + 0.5 * ring_hu * std::sin(2 * kPi * r / 2.0) + noise(rng)));
+      d.crop.hu[static_cast<size_t>(y) * kSize + x] =
+          static_cast<float>(-500 + 0.5 * ring_hu * std::sin(2 * kPi * r / 2.0) + noise(rng));
     }
   return d;
 }
@@ -51,7 +50,7 @@ void bar(Drawn& d, Vec2 from, double angle, double length_mm, double width_mm, d
       const Vec2 q = Vec2{x * kPixel, y * kPixel} - from;
       const double along = q.x * u.x + q.y * u.y, across = std::abs(q.x * u.y - q.y * u.x);
       if (along >= 0 && along <= length_mm && across <= 0.5 * width_mm)
-        d.crop.hu[static_cast<size_t>(y) * kSize + x] += static_cast<std::int16_t>(std::lround(hu));
+        d.crop.hu[static_cast<size_t>(y) * kSize + x] += static_cast<float>(hu);
     }
 }
 

@@ -18,7 +18,7 @@ constexpr double kMb = 1024.0 * 1024.0;
 // levels, piths: StemSliceRecord), the stem built from them, its copy in the log model, and the
 // knot pass's mask.
 constexpr double kRecordBytes = 32 * 1024;
-// The pith crop's half-width (pith_track.cpp kCropHalfMm), 16 bits a pixel.
+// The pith crop's half-width (pith_track.cpp kCropHalfMm), float pixels.
 constexpr double kCropHalfMm = 45.0;
 constexpr double kSmallestCoreMm = 300, kCoreStepMm = 100;
 }  // namespace
@@ -66,7 +66,7 @@ Result<MemoryPlan> plan_memory(const VolumeGeometry& g, int threads, double budg
   p.records_mb = n * kRecordBytes / kMb;
   const double sx = g.spacing_x > 0 ? g.spacing_x : 1, sy = g.spacing_y > 0 ? g.spacing_y : 1;
   const double crop_mb =
-      (2 * std::floor(kCropHalfMm / sx) + 1) * (2 * std::floor(kCropHalfMm / sy) + 1) * 2.0 / kMb;
+      (2 * std::floor(kCropHalfMm / sx) + 1) * (2 * std::floor(kCropHalfMm / sy) + 1) * 4.0 / kMb;
   const double all_crops_mb = n * crop_mb;
   // The log's radius is not known yet: the field of view's.
   const double r_max = 0.5 * std::min(g.width * sx, g.height * sy);

@@ -70,14 +70,9 @@ SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_
   k.height = std::clamp(cy + hy + 1, 0, s.height) - k.y0;
   if (k.width <= 0 || k.height <= 0) return SliceCrop{};
   k.hu.resize(static_cast<size_t>(k.width) * k.height);
-  for (int y = 0; y < k.height; ++y) {
-    const float* src = &s.hu[static_cast<size_t>(k.y0 + y) * s.width + k.x0];
-    std::int16_t* dst = &k.hu[static_cast<size_t>(y) * k.width];
-    for (int x = 0; x < k.width; ++x) {  // nearest whole HU, half away from zero
-      const float v = std::clamp(src[x], -32768.f, 32767.f);
-      dst[x] = static_cast<std::int16_t>(v >= 0.f ? v + 0.5f : v - 0.5f);
-    }
-  }
+  for (int y = 0; y < k.height; ++y)
+    std::copy_n(&s.hu[static_cast<size_t>(k.y0 + y) * s.width + k.x0], k.width,
+                &k.hu[static_cast<size_t>(y) * k.width]);
   return k;
 }
 
@@ -633,7 +628,7 @@ CropStore::~CropStore() {
 
 void CropStore::put(int i, SliceCrop crop) {
   Entry& e = entries_[static_cast<size_t>(i)];
-  const std::size_t bytes = crop.hu.size() * sizeof(std::int16_t);
+  const std::size_t bytes = crop.hu.size() * sizeof(float);
   if (bytes > 0 && in_memory_ + bytes > budget_) {
     if (!file_) file_ = std::tmpfile();  // removed when closed, or when the process ends
     if (file_) {
@@ -671,7 +666,7 @@ std::shared_ptr<const SliceCrop> CropStore::get(int i) const {
   }
   auto crop = std::make_shared<SliceCrop>(e.meta);
   crop->hu.resize(static_cast<size_t>(crop->width) * crop->height);
-  const std::size_t bytes = crop->hu.size() * sizeof(std::int16_t);
+  const std::size_t bytes = crop->hu.size() * sizeof(float);
   if (::pread(fileno(file_), crop->hu.data(), bytes, static_cast<off_t>(e.offset)) !=
       static_cast<ssize_t>(bytes))
     crop->hu.clear();  // unreadable: as if the slice had no crop

@@ -91,14 +91,12 @@ struct SliceCrop {
   std::int64_t wood_cells = 0;  // the whole slice's coarse wood count (log-end test)
   // The whole slice's wood window (wood_levels), for the level near the pith.
   double wood_min_hu = 0, wood_max_hu = 0;
-  // HU rounded to 16 bits (half the memory of floats: the crops of every slice are held until
-  // the pith track is refined; CT numbers are whole HU in DICOM anyway).
-  std::vector<std::int16_t> hu;
+  std::vector<float> hu;
 };
 
 // The crops of every slice, held until the pith track is refined: in memory up to a budget, the
 // rest in an unlinked temporary file read back on demand (the last few dozen read are held), so
-// that a long or finely sampled scan's crops (0.4 mm pixels, 2 mm apart: 50 MB a metre) do not
+// that a long or finely sampled scan's crops (0.4 mm pixels, 2 mm apart: 100 MB a metre) do not
 // grow the process with the log's length.
 //
 //   CropStore crops(n, 32 << 20);
