@@ -38,17 +38,8 @@ void LogVolume::keep(int i, const Slice& slice, Vec2 centre, double reach_mm) {
 
 float LogVolume::at(int i, double x_mm, double y_mm) const {
   const LogPlane& p = planes_[static_cast<size_t>(i)];
-  const double c = x_mm / geometry_.spacing_x - p.x0, r = y_mm / geometry_.spacing_y - p.y0;
-  if (!(c >= 0.0 && r >= 0.0 && c <= p.width - 1 && r <= p.height - 1) || p.width < 2 ||
-      p.height < 2)
-    return -1000.f;
-  const int c0 = std::min(static_cast<int>(c), p.width - 2);
-  const int r0 = std::min(static_cast<int>(r), p.height - 2);
-  const float fc = static_cast<float>(c - c0), fr = static_cast<float>(r - r0);
-  const std::int16_t* q = &p.hu[static_cast<size_t>(r0) * p.width + c0];
-  const float a = q[0] + fc * static_cast<float>(q[1] - q[0]);
-  const float b = q[p.width] + fc * static_cast<float>(q[p.width + 1] - q[p.width]);
-  return a + fr * (b - a);
+  return bilinear_hu([&](std::size_t k) { return static_cast<float>(p.hu[k]); }, p.width, p.height,
+                     x_mm / geometry_.spacing_x - p.x0, y_mm / geometry_.spacing_y - p.y0);
 }
 
 std::size_t LogVolume::bytes() const {

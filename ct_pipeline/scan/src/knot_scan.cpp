@@ -47,34 +47,40 @@ void fit_and_number(std::vector<KnotTrace> traces, double dz, const KnotScanOpti
                     int threads, Clock::time_point t0, Clock::time_point t1, KnotScan& out);
 }  // namespace
 
-Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
-                            const KnotScanOptions& options) {
+namespace {
+// Detects with `detect(options with threads)` (traces or an error), then fits and numbers.
+template <class Detect>
+Result<KnotScan> scan_with(const Stem& stem, const VolumeGeometry& geometry,
+                           const KnotScanOptions& options, Detect detect) {
   const auto t0 = Clock::now();
   KnotScan out;
   if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");
   const int threads = thread_count(options);
-  KnotDetectOptions detect = options.detect;
-  if (detect.threads <= 0) detect.threads = threads;
-  std::vector<KnotTrace> traces = detect_knots(volume, stem, detect, &out.detect);
-  const double dz = volume.geometry().slice_spacing() > 0 ? volume.geometry().slice_spacing() : 1.0;
-  fit_and_number(std::move(traces), dz, options, threads, t0, Clock::now(), out);
+  KnotDetectOptions o = options.detect;
+  if (o.threads <= 0) o.threads = threads;
+  Result<std::vector<KnotTrace>> traces = detect(o, &out.detect);
+  if (!traces) return traces.error();
+  const double dz = geometry.slice_spacing() > 0 ? geometry.slice_spacing() : 1.0;
+  fit_and_number(std::move(traces.value()), dz, options, threads, t0, Clock::now(), out);
   return out;
+}
+}  // namespace
+
+Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
+                            const KnotScanOptions& options) {
+  return scan_with(
+      stem, volume.geometry(), options,
+      [&](const KnotDetectOptions& o, KnotDetectSummary* sum) -> Result<std::vector<KnotTrace>> {
+        return detect_knots(volume, stem, o, sum);
+      });
 }
 
 Result<KnotScan> scan_knots(SliceSource& source, const Stem& stem, const std::vector<char>* has_log,
                             const KnotScanOptions& options, const KnotSliceVisitor& visit) {
-  const auto t0 = Clock::now();
-  KnotScan out;
-  if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");
-  const int threads = thread_count(options);
-  KnotDetectOptions detect = options.detect;
-  if (detect.threads <= 0) detect.threads = threads;
-  auto traces = detect_knots(source, stem, has_log, detect, options.window, &out.detect, visit);
-  if (!traces) return traces.error();
-  const VolumeGeometry& g = source.geometry();
-  const double dz = g.slice_spacing() > 0 ? g.slice_spacing() : 1.0;
-  fit_and_number(std::move(traces.value()), dz, options, threads, t0, Clock::now(), out);
-  return out;
+  return scan_with(stem, source.geometry(), options,
+                   [&](const KnotDetectOptions& o, KnotDetectSummary* sum) {
+                     return detect_knots(source, stem, has_log, o, options.window, sum, visit);
+                   });
 }
 
 namespace {

@@ -216,20 +216,9 @@ void UnrolledViewBuilder::add(int i, const LogVolume& volume) {
 
 void UnrolledViewBuilder::add(int i, const Slice& s) {
   // LogVolume::at on the whole slice: bilinear on the 16-bit HU, air outside.
-  fill(i, [&](double x, double y) -> float {
-    const double c = x / sx_, r = y / sy_;
-    if (!(c >= 0.0 && r >= 0.0 && c <= s.width - 1 && r <= s.height - 1) || s.width < 2 ||
-        s.height < 2)
-      return -1000.f;
-    const int c0 = std::min(static_cast<int>(c), s.width - 2);
-    const int r0 = std::min(static_cast<int>(r), s.height - 2);
-    const float fc = static_cast<float>(c - c0), fr = static_cast<float>(r - r0);
-    const float* q = &s.hu[static_cast<size_t>(r0) * s.width + c0];
-    const float q00 = quantise_hu(q[0]), q01 = quantise_hu(q[1]);
-    const float q10 = quantise_hu(q[s.width]), q11 = quantise_hu(q[s.width + 1]);
-    const float a = q00 + fc * (q01 - q00);
-    const float b = q10 + fc * (q11 - q10);
-    return a + fr * (b - a);
+  fill(i, [&](double x, double y) {
+    return bilinear_hu([&](std::size_t k) { return static_cast<float>(quantise_hu(s.hu[k])); },
+                       s.width, s.height, x / sx_, y / sy_);
   });
 }
 

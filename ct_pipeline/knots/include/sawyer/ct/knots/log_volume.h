@@ -9,6 +9,7 @@
 // Frames: scanner frame, mm (docs/architecture.md 3); slice i lies at geometry.z[i].
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -24,6 +25,24 @@ namespace sawyer::ct {
 inline std::int16_t quantise_hu(float v) {
   v = v < -1024.f ? -1024.f : (v > 32767.f ? 32767.f : v);
   return static_cast<std::int16_t>(v >= 0.f ? v + 0.5f : v - 0.5f);
+}
+
+// Bilinear HU at pixel (c, r) (column, row; fractional) of a width x height image whose pixel
+// k is value(k), rounded as quantise_hu; -1000 (air) outside it. LogVolume::at on a kept plane,
+// and the same on a slice read again.
+template <class Value>
+float bilinear_hu(const Value& value, int width, int height, double c, double r) {
+  if (!(c >= 0.0 && r >= 0.0 && c <= width - 1 && r <= height - 1) || width < 2 || height < 2)
+    return -1000.f;
+  const int c0 = c < width - 2 ? static_cast<int>(c) : width - 2;
+  const int r0 = r < height - 2 ? static_cast<int>(r) : height - 2;
+  const float fc = static_cast<float>(c - c0), fr = static_cast<float>(r - r0);
+  const std::size_t k = static_cast<std::size_t>(r0) * width + c0;
+  const float q00 = value(k), q01 = value(k + 1);
+  const float q10 = value(k + width), q11 = value(k + width + 1);
+  const float a = q00 + fc * (q01 - q00);
+  const float b = q10 + fc * (q11 - q10);
+  return a + fr * (b - a);
 }
 
 struct LogPlane {
