@@ -5,6 +5,9 @@
 #   bench/scale.sh                      logs of 1, 2, 4 and 6 m in every configuration
 #   bench/scale.sh --quick              1 and 2 m only, a smoke run
 #   bench/scale.sh --ready              only the configurations whose phantom is made already
+#   bench/scale.sh --only 1024-0.4-2    only these rows (comma-separated: gran1, 512-0.8-5,
+#                                       512-0.8-1, 1024-0.4-2); tables of several runs combine
+#                                       with build/bench/scale_bench table <(cat results-*.jsonl)
 #   bench/scale.sh [--quick] [--ready] -- OPTS   OPTS passed to every `sawyer run` (e.g. -- --memory 400)
 #
 # Configurations (pixels, pixel size, slice spacing): 512² 0.8 mm 5 mm, 512² 0.8 mm 1 mm and
@@ -27,12 +30,14 @@ WORK=$ROOT/build/bench-scale
 LENGTHS="1 2 4 6"
 EXTRA=()
 READY=0
+ONLY=gran1,512-0.8-5,512-0.8-1,1024-0.4-2
 while [ $# -gt 0 ]; do
   case $1 in
     --quick) LENGTHS="1 2"; shift ;;
     --ready) READY=1; shift ;;
+    --only) ONLY=${2:?--only needs a list}; shift 2 ;;
     --) shift; EXTRA=("$@"); break ;;
-    *) echo "scale.sh: unknown option '$1' (--quick, --ready, or -- and sawyer run options)" >&2
+    *) echo "scale.sh: unknown option '$1' (--quick, --ready, --only LIST, or -- and sawyer run options)" >&2
        exit 1 ;;
   esac
 done
@@ -78,7 +83,8 @@ prefix() {
   echo "$d"
 }
 
-if [ ! -f out/gran1_ct/truth/phantom.json ]; then
+wanted() { [[ ",$ONLY," == *",$1,"* ]]; }
+if wanted gran1 && [ ! -f out/gran1_ct/truth/phantom.json ]; then
   echo "making out/gran1_ct as scripts/demo.sh does (once) ..." >&2
   nice -n 10 "$SAWYER" phantom sample_logs/gran1_spruce/log.json -o out/gran1_ct --seed 1 >/dev/null
 fi
@@ -91,12 +97,15 @@ mkdir -p "$RUNS"
 warm() { find -L "$1" -maxdepth 1 -name '*.dcm' -print0 | xargs -0 cat >/dev/null; }
 
 echo "running (results in $RESULTS) ..." >&2
-warm out/gran1_ct
-"$BENCH" run --scan out/gran1_ct --out "$RUNS/gran1" --results "$RESULTS" \
-  --config "gran1 512² 0.8/5 mm" --length-m 4 --size 512 --truth out/gran1_ct/truth \
-  --sawyer "$SAWYER" -- "${EXTRA[@]}"
+if wanted gran1; then
+  warm out/gran1_ct
+  "$BENCH" run --scan out/gran1_ct --out "$RUNS/gran1" --results "$RESULTS" \
+    --config "gran1 512² 0.8/5 mm" --length-m 4 --size 512 --truth out/gran1_ct/truth \
+    --sawyer "$SAWYER" -- "${EXTRA[@]}"
+fi
 for cfg in "512 0.8 5" "512 0.8 1" "1024 0.4 2"; do
   set -- $cfg
+  wanted "$1-$2-$3" || continue
   if [ $READY = 1 ] && [ ! -f "$WORK/phantom-$1-$2-$3/truth/phantom.json" ]; then
     echo "skipped: $1² $2/$3 mm (its phantom is not made yet)" >>"$WORK/skipped-$STAMP"
     continue
@@ -120,4 +129,9 @@ done
   echo
   "$BENCH" table "$RESULTS"
   [ ! -f "$WORK/skipped-$STAMP" ] || { echo; cat "$WORK/skipped-$STAMP"; }
+  if awk '{ exit !($1 > 2.5) }' /proc/loadavg; then
+    echo
+    echo "load average above 2.5 on $(nproc) cores: other work shared the CPUs, so times and" \
+      "voxels/s are lower bounds (CPU s is the steadier figure)"
+  fi
 } | tee "$WORK/table.md"
