@@ -42,6 +42,11 @@ grep -q 'steepest configuration: B 1024) | MISSED by 97.5 MB/m (102.5 MB/m)' "$T
   fail "slope target"
 grep -q 'slowest row: A 512, 1.0 m) | MISSED by 32.4 M voxels/s (55.6' "$T/table.md" ||
   fail "throughput target"
+# Against gran1's 95.2 M voxels/s: A's 1 m row at 58 %.
+grep -q '| A 512 | 1.0 | 1 | 50 | 0.90 | 1.00 | 1.0 | 340 | 55.6 | 58 % |' "$T/table.md" ||
+  fail "rate against gran1"
+grep -q 'slowest row: A 512, 1.0 m) | MISSED by 21.7 % (58.3 %)' "$T/table.md" ||
+  fail "relative throughput target"
 
 # 2. A real run: 40 slices of the bundled spruce, scored against the phantom's truth.
 "$SAWYER" phantom "$SRC/sample_logs/gran1_spruce/log.json" -o "$T/ct" --from-mm 1000 \
