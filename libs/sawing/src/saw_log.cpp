@@ -106,6 +106,13 @@ SawLog::SawLog(const LogModel& model, const ScannerPosition& at, int knot_sample
   build(knot_samples);
 }
 
+void SawLog::release_tables() {
+  for (auto* v : {&rmin2_, &rmax2_, &smin2_, &smax2_, &smin_, &smax_, &run_min_, &run_max_})
+    std::vector<double>().swap(*v);
+  std::vector<Vec2>().swap(line_at_slice_);
+  std::vector<KnotPolyline>().swap(knots_);
+}
+
 void SawLog::build(int knot_samples) {
   static std::atomic<std::uint64_t> next_serial{1};
   serial_ = next_serial.fetch_add(1);

@@ -141,6 +141,10 @@ class SawLog {
   // outside it by more than `margin`. False means "not sure".
   bool segment_surely_inside(int slice, Vec2 a, Vec2 b, double margin) const;
   bool segment_surely_outside(int slice, Vec2 a, Vec2 b, double margin) const;
+  // Frees the tables saw() reads (~45 KB a stem sample: 36 MB for a 4 m log at 5 mm, 270 MB at
+  // 1 mm) once a caller is done sawing; the centre line, bow, turn and usable diameter stay.
+  // saw() must not be called on it again.
+  void release_tables();
 
  private:
   const LogModel* model_;

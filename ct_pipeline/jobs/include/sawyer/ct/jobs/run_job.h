@@ -56,7 +56,11 @@ struct RunObserver {
   std::function<void(const std::string& line)> decision;
 };
 
-// Held by pointer: the sawing outcome refers to the scan's log model inside it.
+// Held by pointer: the sawing outcome refers to the scan's log model inside it. Once the scan
+// folder is written, the scan's per-slice arrays, its own stem copy, QA views and knot traces
+// are released (scan.scan keeps the records' piths and counts; the log model is whole), and
+// with a report the sawing outcome's SawLog tables too (SawLog::release_tables: its line, bow
+// and turn stay): the report would otherwise stack on them.
 struct RunOutcome {
   ScanJob scan;
   sawing::SawSetup setup;
