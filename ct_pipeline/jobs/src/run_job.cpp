@@ -238,6 +238,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
     const auto t_write = Clock::now();
     if (Status w = write_scan_extras(scan, c.scan, tmp / "scan"); !w) return w;
     const double write_seconds = since(t_write);
+    const double write_peak_mb = peak_rss_mb();
     release_written_detail(run->scan.scan);
     if (!c.no_report) {
       // The report saws the boards again from the files; the run's own sawing tables (per stem
@@ -256,8 +257,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
                  note_text("%d pages, %zu images", run->report.pages, run->report.images.size()));
     }
     // run.json again with the times of the work done since (the report shows scan and saw).
-    // write and report ran side by side: the peak by their end is both's.
-    stages.push_back({"write", write_seconds, peak_rss_mb()});
+    stages.push_back({"write", write_seconds, write_peak_mb});
     if (!c.no_report) stages.push_back({"report", report_seconds, peak_rss_mb()});
     if (Status w = report::write_run_file(run_record(c, scan, source, checksum, date, stages),
                                           tmp / "run.json");

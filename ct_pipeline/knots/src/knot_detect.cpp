@@ -1304,8 +1304,7 @@ std::vector<Window> plan_windows(int n, double dz, const KnotWindowOptions& o) {
 }
 
 double spacing_of(const VolumeGeometry& g) {
-  const int n = g.slice_count();
-  return n >= 2 ? std::max(1e-3, (g.z.back() - g.z.front()) / (n - 1)) : 1.0;
+  return g.slice_spacing() > 0 ? g.slice_spacing() : 1.0;
 }
 }  // namespace
 
@@ -1354,7 +1353,7 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
   KnotDetectSummary mean;  // signal figures, weighted by the windows' own slices
   // The rows the next window shares with this one, unrolled already (HU, before contrast): the
   // overlap is neither read nor unrolled twice.
-  int carried_from = 0, carried_nr = 0;
+  int carried_from = 0, carried_to = 0, carried_nr = 0;  // slices [from, to), shells
   std::vector<std::int16_t> carried;
   for (size_t wi = 0; wi < windows.size(); ++wi) {
     const Window& w = windows[wi];
@@ -1363,13 +1362,7 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
     g.core_lo = w.core_begin - w.read_begin, g.core_hi = w.core_end - w.read_begin;
     // Shells beyond the outline are never sampled, and both grids reach every slice's outline.
     int i = w.read_begin;
-    const int carried_end =
-        carried_nr > 0
-            ? std::min(w.read_end,
-                       carried_from + static_cast<int>(carried.size() /
-                                                       (static_cast<size_t>(carried_nr) * g.nw)))
-            : carried_from;
-    for (; i < carried_end && i >= carried_from; ++i) {
+    for (; i >= carried_from && i < std::min(carried_to, w.read_end); ++i) {
       const int nr = std::min(g.nr, carried_nr);
       for (int j = 0; j < nr; ++j)
         std::copy_n(&carried[(static_cast<size_t>(i - carried_from) * carried_nr + j) * g.nw], g.nw,
@@ -1398,6 +1391,7 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
     }
     if (wi + 1 < windows.size()) {
       carried_from = std::max(w.read_begin, windows[wi + 1].read_begin);
+      carried_to = w.read_end;
       carried_nr = g.nr;
       carried.assign(
           g.hu.begin() + static_cast<std::ptrdiff_t>(g.at(carried_from - w.read_begin, 0, 0)),

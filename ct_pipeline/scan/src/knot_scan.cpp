@@ -44,47 +44,6 @@ int thread_count(const KnotScanOptions& options) {
 
 // Fits the detected traces, drops doubles, numbers the knots (slices dz mm apart).
 void fit_and_number(std::vector<KnotTrace> traces, double dz, const KnotScanOptions& options,
-                    int threads, Clock::time_point t0, Clock::time_point t1, KnotScan& out);
-}  // namespace
-
-namespace {
-// Detects with `detect(options with threads)` (traces or an error), then fits and numbers.
-template <class Detect>
-Result<KnotScan> scan_with(const Stem& stem, const VolumeGeometry& geometry,
-                           const KnotScanOptions& options, Detect detect) {
-  const auto t0 = Clock::now();
-  KnotScan out;
-  if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");
-  const int threads = thread_count(options);
-  KnotDetectOptions o = options.detect;
-  if (o.threads <= 0) o.threads = threads;
-  Result<std::vector<KnotTrace>> traces = detect(o, &out.detect);
-  if (!traces) return traces.error();
-  const double dz = geometry.slice_spacing() > 0 ? geometry.slice_spacing() : 1.0;
-  fit_and_number(std::move(traces.value()), dz, options, threads, t0, Clock::now(), out);
-  return out;
-}
-}  // namespace
-
-Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
-                            const KnotScanOptions& options) {
-  return scan_with(
-      stem, volume.geometry(), options,
-      [&](const KnotDetectOptions& o, KnotDetectSummary* sum) -> Result<std::vector<KnotTrace>> {
-        return detect_knots(volume, stem, o, sum);
-      });
-}
-
-Result<KnotScan> scan_knots(SliceSource& source, const Stem& stem, const std::vector<char>* has_log,
-                            const KnotScanOptions& options, const KnotSliceVisitor& visit) {
-  return scan_with(stem, source.geometry(), options,
-                   [&](const KnotDetectOptions& o, KnotDetectSummary* sum) {
-                     return detect_knots(source, stem, has_log, o, options.window, sum, visit);
-                   });
-}
-
-namespace {
-void fit_and_number(std::vector<KnotTrace> traces, double dz, const KnotScanOptions& options,
                     int threads, Clock::time_point t0, Clock::time_point t1, KnotScan& out) {
   out.traces_found = static_cast<int>(traces.size());
   out.rejected_as_rings = out.detect.rejected_as_rings();
@@ -166,6 +125,40 @@ void fit_and_number(std::vector<KnotTrace> traces, double dz, const KnotScanOpti
   out.seconds_fit = std::chrono::duration<double>(t2 - t1).count();
   out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
 }
+
+// Detects with `detect(options with threads)` (traces or an error), then fits and numbers.
+template <class Detect>
+Result<KnotScan> scan_with(const Stem& stem, const VolumeGeometry& geometry,
+                           const KnotScanOptions& options, Detect detect) {
+  const auto t0 = Clock::now();
+  KnotScan out;
+  if (stem.slice_count() == 0) return Error("knot scan", "the stem is empty (no log found)");
+  const int threads = thread_count(options);
+  KnotDetectOptions o = options.detect;
+  if (o.threads <= 0) o.threads = threads;
+  Result<std::vector<KnotTrace>> traces = detect(o, &out.detect);
+  if (!traces) return traces.error();
+  const double dz = geometry.slice_spacing() > 0 ? geometry.slice_spacing() : 1.0;
+  fit_and_number(std::move(traces.value()), dz, options, threads, t0, Clock::now(), out);
+  return out;
+}
 }  // namespace
+
+Result<KnotScan> scan_knots(const LogVolume& volume, const Stem& stem,
+                            const KnotScanOptions& options) {
+  return scan_with(
+      stem, volume.geometry(), options,
+      [&](const KnotDetectOptions& o, KnotDetectSummary* sum) -> Result<std::vector<KnotTrace>> {
+        return detect_knots(volume, stem, o, sum);
+      });
+}
+
+Result<KnotScan> scan_knots(SliceSource& source, const Stem& stem, const std::vector<char>* has_log,
+                            const KnotScanOptions& options, const KnotSliceVisitor& visit) {
+  return scan_with(stem, source.geometry(), options,
+                   [&](const KnotDetectOptions& o, KnotDetectSummary* sum) {
+                     return detect_knots(source, stem, has_log, o, options.window, sum, visit);
+                   });
+}
 
 }  // namespace sawyer::ct

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "sawyer/ct/scan/scan_log.h"
+#include "sawyer/ct/stem/pith_track.h"
 
 namespace sawyer::ct {
 namespace {
@@ -18,8 +19,6 @@ constexpr double kMb = 1024.0 * 1024.0;
 // levels, piths: StemSliceRecord), the stem built from them, its copy in the log model, and the
 // knot pass's mask.
 constexpr double kRecordBytes = 32 * 1024;
-// The pith crop's half-width (pith_track.cpp kCropHalfMm), float pixels.
-constexpr double kCropHalfMm = 45.0;
 constexpr double kSmallestCoreMm = 300, kCoreStepMm = 100;
 }  // namespace
 
@@ -64,12 +63,9 @@ Result<MemoryPlan> plan_memory(const VolumeGeometry& g, int threads, double budg
   // Stem pass: the job queue (2 per thread), the pool and the tracker's few slices behind.
   p.slices_mb = (4.0 * threads + 6) * slice_mb;
   p.records_mb = n * kRecordBytes / kMb;
-  const double sx = g.spacing_x > 0 ? g.spacing_x : 1, sy = g.spacing_y > 0 ? g.spacing_y : 1;
-  const double crop_mb =
-      (2 * std::floor(kCropHalfMm / sx) + 1) * (2 * std::floor(kCropHalfMm / sy) + 1) * 4.0 / kMb;
-  const double all_crops_mb = n * crop_mb;
+  const double all_crops_mb = n * static_cast<double>(pith_crop_bytes(g)) / kMb;
   // The log's radius is not known yet: the field of view's.
-  const double r_max = 0.5 * std::min(g.width * sx, g.height * sy);
+  const double r_max = 0.5 * std::min(g.width * g.spacing_x, g.height * g.spacing_y);
   KnotDetectOptions detect;
   auto window_mb = [&](const KnotWindowOptions& w) {
     return static_cast<double>(knot_grid_bytes(knot_window_slices(g, w), r_max, detect)) / kMb;

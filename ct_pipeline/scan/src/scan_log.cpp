@@ -63,7 +63,6 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
     for (double r : view_radii)
       out.unrolled.push_back(UnrolledViewBuilder(src.geometry(), out.stem.stem, r).take());
   }
-  if (!options.keep_volume) out.volume.reset();
   out.qa =
       assess_scan(out.stem, options.find_knots ? &out.knots : nullptr, src.geometry(), options.qa);
 

@@ -55,13 +55,15 @@ std::int64_t count_wood(const Slice& s, const WoodLevels& lv) {
 // voters 20 mm beyond and the tensor margins, plus room for the first track's error.
 constexpr double kCropHalfMm = 45.0;
 
+// The crop's half-width in pixels along x and y.
+int crop_half_px(double spacing) { return static_cast<int>(kCropHalfMm / spacing); }
+
 SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_t wood,
                     const WoodLevels& lv) {
   SliceCrop k;
   k.wood_cells = wood;
   k.wood_min_hu = lv.min_hu, k.wood_max_hu = lv.max_hu;
-  const int hx = static_cast<int>(kCropHalfMm / g.spacing_x);
-  const int hy = static_cast<int>(kCropHalfMm / g.spacing_y);
+  const int hx = crop_half_px(g.spacing_x), hy = crop_half_px(g.spacing_y);
   const int cx = static_cast<int>(std::lround(c.x / g.spacing_x));
   const int cy = static_cast<int>(std::lround(c.y / g.spacing_y));
   k.x0 = std::clamp(cx - hx, 0, s.width);
@@ -89,8 +91,7 @@ struct Level {
   float cut = 0;  // pixels farther than this from `level` are left out
 };
 
-template <class T>
-Level wood_level(const T* img, int w, int h, double cx, double cy, double rx, double ry,
+Level wood_level(const float* img, int w, int h, double cx, double cy, double rx, double ry,
                  double wood_min_hu, double wood_max_hu) {
   std::vector<float> v;
   const int x0 = std::max(0, static_cast<int>(cx - rx)),
@@ -101,7 +102,7 @@ Level wood_level(const T* img, int w, int h, double cx, double cy, double rx, do
     for (int x = x0; x <= x1; x += 2) {
       const double dx = (x - cx) / rx, dy = (y - cy) / ry;
       if (dx * dx + dy * dy > 1) continue;
-      const float q = static_cast<float>(img[static_cast<size_t>(y) * w + x]);
+      const float q = img[static_cast<size_t>(y) * w + x];
       if (q > wood_min_hu && q < wood_max_hu) v.push_back(q);
     }
   if (v.size() < 8) return {};
@@ -113,12 +114,10 @@ Level wood_level(const T* img, int w, int h, double cx, double cy, double rx, do
 }
 
 // Adds the in-level pixels of src[xa, xb) to sum and count.
-template <class T>
-inline void add_row(const T* src, Level level, int xa, int xb, float* sum, float* cnt) {
+inline void add_row(const float* src, Level level, int xa, int xb, float* sum, float* cnt) {
   for (int x = xa; x < xb; ++x) {
-    const float v = static_cast<float>(src[x]);
-    const bool in = std::abs(v - level.level) <= level.cut;
-    sum[x] += in ? v : 0.f;
+    const bool in = std::abs(src[x] - level.level) <= level.cut;
+    sum[x] += in ? src[x] : 0.f;
     cnt[x] += in ? 1.f : 0.f;
   }
 }
@@ -607,6 +606,11 @@ std::vector<Vec2> smooth_pith_track(const std::vector<double>& z,
       (*outlier)[i] = raw[i].found && (prior_w[i] <= 0 || robust[i] <= 0);
   }
   return fit;
+}
+
+std::size_t pith_crop_bytes(const VolumeGeometry& g) {
+  return static_cast<std::size_t>(2 * crop_half_px(g.spacing_x) + 1) *
+         static_cast<std::size_t>(2 * crop_half_px(g.spacing_y) + 1) * sizeof(float);
 }
 
 // A few dozen crops read back, most recently used first.

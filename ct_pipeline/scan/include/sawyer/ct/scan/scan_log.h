@@ -39,9 +39,9 @@ struct ScanOptions {
   KnotScanOptions knots;
   QaOptions qa;
   bool find_knots = true;
-  // Keep the voxels the knot pass read in ScanResult::volume (tools and tests that look at
-  // them). By default they are released as soon as the knot pass and the unrolled QA views are
-  // done, so the rest of a run (sawing, the report) does not carry them.
+  // Keep the log's voxels through the stem pass (cropped, 16 bits) in ScanResult::volume and run
+  // the knot pass on them in one grid (tools and tests that look at them). By default no voxels
+  // are kept: the knot pass reads the scan again in windows (knot_detect.h).
   bool keep_volume = false;
   int threads = 0;  // 0: every core; overrides the passes' own
   // The model's id, species and the name its provenance gives the source ("" : "scan").
@@ -81,8 +81,8 @@ struct ScanResult {
   LogModel log;   // scanner frame (place_in_scanner_frame), qa set
   StemScan stem;  // the passes' records, in the slices' own axes (pixel (0, 0) at 0, 0)
   KnotScan knots;
-  // The voxels the knot pass read: null unless ScanOptions::keep_volume; voxel_bytes says how
-  // much they took while they were held.
+  // The voxels the knot pass read: null unless ScanOptions::keep_volume. voxel_bytes: what they
+  // took, or without them the largest window's unrolled grid.
   std::unique_ptr<LogVolume> volume;
   std::size_t voxel_bytes = 0;
   std::vector<UnrolledView> unrolled;  // at 30, 60 and 90 mm from the pith

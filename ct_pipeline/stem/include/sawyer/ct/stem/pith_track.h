@@ -94,6 +94,9 @@ struct SliceCrop {
   std::vector<float> hu;
 };
 
+// Bytes of one slice's crop (its pixels) at this geometry's pixel size, away from the edges.
+std::size_t pith_crop_bytes(const VolumeGeometry& geometry);
+
 // The crops of every slice, held until the pith track is refined: in memory up to a budget, the
 // rest in an unlinked temporary file read back on demand (the last few dozen read are held), so
 // that a long or finely sampled scan's crops (0.4 mm pixels, 2 mm apart: 100 MB a metre) do not
