@@ -19,11 +19,8 @@ FROM=""; TO=""; TAG=full
 if [ "${1:-}" = "--short" ]; then FROM="--from-mm 1000"; TO="--to-mm 1995"; TAG=short; fi
 
 scripts/install_deps.sh >/dev/null
-# An existing build folder keeps its options (build-test keeps its tests); a new one skips them.
-tests_flag=()
-[ -f "$BUILD/CMakeCache.txt" ] || tests_flag=(-DSAWYER_BUILD_TESTS=OFF)
-cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release "${tests_flag[@]}" >/dev/null
-cmake --build "$BUILD" --target sawyer ct_read_bench >/dev/null
+. bench/build_for_bench.sh
+bench_build "$BUILD" sawyer ct_read_bench
 SAWYER=$ROOT/$BUILD/apps/sawyer/sawyer
 BENCH=$ROOT/$BUILD/bench/ct_read_bench
 

@@ -42,10 +42,8 @@ while [ $# -gt 0 ]; do
   esac
 done
 
-tests_flag=()
-[ -f "$BUILD/CMakeCache.txt" ] || tests_flag=(-DSAWYER_BUILD_TESTS=OFF)
-cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release "${tests_flag[@]}" >/dev/null
-cmake --build "$BUILD" --target sawyer scale_bench >/dev/null
+. bench/build_for_bench.sh
+bench_build "$BUILD" sawyer scale_bench
 SAWYER=$ROOT/$BUILD/apps/sawyer/sawyer
 BENCH=$ROOT/$BUILD/bench/scale_bench
 
