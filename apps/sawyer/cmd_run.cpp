@@ -149,7 +149,7 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--memory", c->job.scan.memory_mb,
                   "memory budget, MB: the run fits into it (narrower knot windows, pith crops on "
                   "disk) or is refused before the scan is read")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(1.0, 1e7))
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", c->quiet, "no progress on stderr");
   add_ct_options(cmd, c->ct);

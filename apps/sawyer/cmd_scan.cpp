@@ -81,7 +81,7 @@ void add_scan_command(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--memory", c->job.memory_mb,
                   "memory budget, MB: the scan fits into it (narrower knot windows, pith crops on "
                   "disk) or is refused before a slice is read")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(1.0, 1e7))
       ->capture_default_str();
   cmd->add_option("--qa-slices", c->job.qa_slices, "how many slices to draw in qa/")
       ->capture_default_str();
