@@ -158,6 +158,44 @@ TEST(Stem, AreaAndExtent) {
   EXPECT_TRUE(s.contains({0, 0, -2}));
 }
 
+// A 1 mm stem resampled to 5 mm (issue 24): the same length, a fifth of the samples, each the
+// mean of the five under it, and a smooth shape still where it was.
+TEST(Stem, ResampledToACoarserStepKeepsItsLengthAndShape) {
+  Stem fine = make_stem(1003, 1.0, 90, 120.0, 6.0, -0.01, {3, -2}, {0.002, 0.001});
+  fine.z0_mm = 40.0;
+  fine.heartwood = fine.radius;
+  for (auto& row : fine.heartwood)
+    for (double& r : row) r *= 0.6;
+  for (int i = 0; i < fine.slice_count(); ++i) fine.bark_mm.push_back(i % 2 ? 4.0 : 0.0);
+  const Stem coarse = resample_stem(fine, 5.0);
+  ASSERT_EQ(coarse.slice_count(), 201);  // ceil(1003 / 5)
+  EXPECT_LE(coarse.dz_mm, 5.0);
+  EXPECT_NEAR(coarse.z_begin(), fine.z_begin(), 1e-9);
+  EXPECT_NEAR(coarse.z_end(), fine.z_end(), 1e-9);
+  EXPECT_EQ(coarse.n_angles, 90);
+  ASSERT_EQ(coarse.heartwood.size(), coarse.radius.size());
+  ASSERT_EQ(coarse.bark_mm.size(), coarse.radius.size());
+  for (int i = 0; i < coarse.slice_count(); ++i) {
+    const double z = coarse.z_at(i);
+    // The pith and radius are linear in z here: a cell's mean is their value at its centre, up
+    // to the old samples cut by a cell's edge counting as flat (slope x half a fine step).
+    EXPECT_NEAR(coarse.pith[i].x, fine.pith_at(z).x, 0.002 * 0.5);
+    EXPECT_NEAR(coarse.pith[i].y, fine.pith_at(z).y, 0.001 * 0.5);
+    for (int k = 0; k < 90; k += 7) {
+      EXPECT_NEAR(coarse.radius[i][k], fine.radius_at(kTwoPi * k / 90, z), 0.01 * 0.5);
+      EXPECT_NEAR(coarse.heartwood[i][k], 0.6 * coarse.radius[i][k], 1e-9);
+    }
+    EXPECT_DOUBLE_EQ(coarse.bark_mm[i], 4.0);  // the slices without bark do not count
+  }
+  // Between its samples the coarse stem still follows the fine one.
+  for (double z = 45.0; z < 1030.0; z += 13.0)
+    EXPECT_NEAR(coarse.radius_at(0.7, z), fine.radius_at(0.7, z), 0.01 * 0.5) << z;
+  // A stem as coarse already, or no step: as it was.
+  EXPECT_EQ(resample_stem(coarse, 5.0).slice_count(), coarse.slice_count());
+  EXPECT_EQ(resample_stem(fine, 0.0).slice_count(), fine.slice_count());
+  EXPECT_EQ(resample_stem(fine, 1.0).slice_count(), fine.slice_count());
+}
+
 TEST(LogModel, MaterialAtTellsAirWoodSoundAndDeadKnot) {
   LogModel log;
   log.stem = make_stem(40, 10.0, 72, 160.0, 0, 0, {10, -5});

@@ -146,6 +146,11 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_flag("--no-report", c->job.no_report, "scan and saw only");
   cmd->add_option("--threads", c->job.scan.threads, "worker threads, 1-256 (default: all cores)")
       ->check(CLI::Range(1, 256));
+  cmd->add_option("--stem-step", c->job.scan.stem_step_mm,
+                  "the model's stem samples at most this far apart along z, mm: finer slices are "
+                  "averaged (0: one sample per slice)")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
   cmd->add_option("--memory", c->job.scan.memory_mb,
                   "memory budget, MB: the run fits into it (narrower knot windows, pith crops on "
                   "disk) or is refused before the scan is read")

@@ -30,11 +30,12 @@ Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
   const std::string name = (in.has_filename() ? in : in.parent_path()).filename().string();
   ScanOptions o;
   o.threads = c.threads;
+  o.stem_step_mm = c.stem_step_mm;
   o.id = c.id.empty() ? name : c.id;
   o.species = c.species;
   o.source_name = name;
   Result<MemoryPlan> plan =
-      plan_memory(job.source->geometry(), c.threads, c.memory_mb, c.report_mb);
+      plan_memory(job.source->geometry(), c.threads, c.memory_mb, c.report_mb, c.stem_step_mm);
   if (!plan) return plan.error().with_context(c.input);
   job.memory = plan.value();
   job.memory.apply(&o);

@@ -609,6 +609,13 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
           }
           rec.contour = detect_contour(job.slice, g, job.pith, co);
           rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, ho);
+          // The stem keeps one bark figure per slice: the angles' own go (issue 24: 3 KB a
+          // slice held to the end of the pass).
+          std::vector<double> bark;
+          for (double b : rec.contour.bark_mm)
+            if (b > 0) bark.push_back(b);
+          rec.bark_mm = median(bark);
+          std::vector<double>().swap(rec.contour.bark_mm);
           if (options.volume) {
             double rmax = 0;
             for (size_t k = 0; k < rec.contour.radius.size(); ++k)
@@ -791,10 +798,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
       last_heart = h;
       st.heartwood.push_back(h);
     }
-    std::vector<double> bark;
-    for (size_t k = 0; k < rec.contour.bark_mm.size(); ++k)
-      if (rec.contour.bark_mm[k] > 0) bark.push_back(rec.contour.bark_mm[k]);
-    st.bark_mm.push_back(median(bark));
+    st.bark_mm.push_back(rec.bark_mm);
   }
   if (std::all_of(st.bark_mm.begin(), st.bark_mm.end(), [](double b) { return b <= 0; }))
     st.bark_mm.clear();
@@ -821,6 +825,9 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
     if (!st.heartwood.empty() && rec.heartwood.present)
       write_back(st.heartwood[row], rec.heartwood.radius, rec.heartwood.valid);
   }
+  // Finer slices than the outline needs: the stem averaged to fewer samples (issue 24: the
+  // stem is held beside the records through the knot pass, and is the model's).
+  if (options.stem_step_mm > 0) st = resample_stem(st, options.stem_step_mm);
   scan.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return scan;
 }

@@ -202,6 +202,48 @@ MaterialSample LogModel::material_at(const Vec3& p) const {
   return out;
 }
 
+Stem resample_stem(const Stem& stem, double max_step_mm) {
+  const int n = stem.slice_count();
+  if (!(max_step_mm > 0) || n < 3 || !(stem.dz_mm < max_step_mm)) return stem;
+  const int m = std::max(2, static_cast<int>(std::ceil(n * stem.dz_mm / max_step_mm - 1e-9)));
+  if (m >= n) return stem;
+  Stem out;
+  out.n_angles = stem.n_angles;
+  out.dz_mm = n * stem.dz_mm / m;
+  out.z0_mm = stem.z_begin() + 0.5 * out.dz_mm;
+  const bool heart = stem.has_heartwood(), bark = !stem.bark_mm.empty();
+  const double per = static_cast<double>(n) / m;  // old samples under one new one
+  for (int j = 0; j < m; ++j) {
+    // The new sample's cell in old-sample units, [a, b), and each old cell's share of it.
+    const double a = j * per, b = (j + 1) * per;
+    const int i0 = static_cast<int>(std::floor(a)),
+              i1 = std::min(n - 1, static_cast<int>(std::ceil(b)) - 1);
+    Vec2 pith;
+    std::vector<double> radius(static_cast<size_t>(stem.n_angles), 0.0);
+    std::vector<double> heartwood(heart ? radius.size() : 0, 0.0);
+    double weight = 0, bark_sum = 0, bark_weight = 0;
+    for (int i = i0; i <= i1; ++i) {
+      const double w = std::min<double>(b, i + 1) - std::max<double>(a, i);
+      if (w <= 0) continue;
+      const auto idx = static_cast<size_t>(i);
+      weight += w;
+      pith = pith + w * stem.pith[idx];
+      for (size_t k = 0; k < radius.size() && k < stem.radius[idx].size(); ++k)
+        radius[k] += w * stem.radius[idx][k];
+      for (size_t k = 0; k < heartwood.size() && k < stem.heartwood[idx].size(); ++k)
+        heartwood[k] += w * stem.heartwood[idx][k];
+      if (bark && stem.bark_mm[idx] > 0) bark_sum += w * stem.bark_mm[idx], bark_weight += w;
+    }
+    out.pith.push_back((1.0 / weight) * pith);
+    for (double& r : radius) r /= weight;
+    for (double& r : heartwood) r /= weight;
+    out.radius.push_back(std::move(radius));
+    if (heart) out.heartwood.push_back(std::move(heartwood));
+    if (bark) out.bark_mm.push_back(bark_weight > 0 ? bark_sum / bark_weight : 0.0);
+  }
+  return out;
+}
+
 void place_in_scanner_frame(LogModel& log, const Vec2& pixel0, const ScannerFrame& frame) {
   for (Vec2& p : log.stem.pith) p = p + pixel0;
   log.scanner_frame = frame;

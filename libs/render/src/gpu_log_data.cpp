@@ -24,8 +24,25 @@ double knot_influence_end(const Knot& k) {
 }
 
 double GpuLogData::bytes() const {
-  return 4.0 * (pith.size() + stem.size() + tracks.size() + cell_start.size() + cell_knots.size()) +
+  const double stem_floats = 2.0 * stem_cols * stem_rows;  // uploaded in blocks or whole
+  return 4.0 * (pith.size() + stem_floats + tracks.size() + cell_start.size() + cell_knots.size()) +
          sizeof(GpuKnot) * knots.size();
+}
+
+float fill_stem_rows(const Stem& st, const GpuLogData& g, int row0, int rows, float* out) {
+  float max_radius = 0;
+  for (int row = row0; row < row0 + rows; ++row) {
+    const double z = st.z_at(0) + row * (st.dz_mm / 2.0);
+    for (int c = 0; c < g.stem_cols; ++c) {
+      const double w = kTwoPi * c / g.stem_cols;
+      const double R = st.radius_at(w, z);
+      const size_t i = (static_cast<size_t>(row - row0) * g.stem_cols + c) * 2;
+      out[i] = static_cast<float>(R);
+      out[i + 1] = g.has_heartwood ? static_cast<float>(st.heartwood_at(w, z)) : 0.0f;
+      max_radius = std::max(max_radius, static_cast<float>(R));
+    }
+  }
+  return max_radius;
 }
 
 GpuLogData build_gpu_log_data(const WoodField& field, const GpuLayoutOptions& options) {
@@ -61,17 +78,9 @@ GpuLogData build_gpu_log_data(const WoodField& field, const GpuLayoutOptions& op
     g.stem_rows = std::max(2, (n - 1) * 2 + 1);
     g.stem_z0 = static_cast<float>(st.z_at(0));
     g.has_heartwood = st.has_heartwood();
-    g.stem.resize(static_cast<size_t>(g.stem_cols) * g.stem_rows * 2);
-    for (int row = 0; row < g.stem_rows; ++row) {
-      const double z = st.z_at(0) + row * (st.dz_mm / 2.0);
-      for (int c = 0; c < g.stem_cols; ++c) {
-        const double w = kTwoPi * c / g.stem_cols;
-        const double R = st.radius_at(w, z);
-        const size_t i = (static_cast<size_t>(row) * g.stem_cols + c) * 2;
-        g.stem[i] = static_cast<float>(R);
-        g.stem[i + 1] = g.has_heartwood ? static_cast<float>(st.heartwood_at(w, z)) : 0.0f;
-        g.max_radius = std::max(g.max_radius, static_cast<float>(R));
-      }
+    if (options.stem_table) {
+      g.stem.resize(static_cast<size_t>(g.stem_cols) * g.stem_rows * 2);
+      g.max_radius = fill_stem_rows(st, g, 0, g.stem_rows, g.stem.data());
     }
   }
   // Knots and their tracks (every 0.5 mm of pith distance, as WoodField::Slice).

@@ -53,10 +53,19 @@ struct GpuLogData {
 struct GpuLayoutOptions {
   double index_dz_mm = 20, index_dr_mm = 20;
   int index_sectors = 16;
+  // false: the stem table's size and step are set but `stem` stays empty (max_radius 0), for a
+  // caller that fills it in blocks of rows (fill_stem_rows) as it uploads them, so that the
+  // whole table is never held beside the GPU's copy (issue 24: ~23 KB a stem sample).
+  bool stem_table = true;
 };
 
 // Builds everything from `field` (its log, parameters and reference radius).
 GpuLogData build_gpu_log_data(const WoodField& field, const GpuLayoutOptions& options);
+
+// Rows [row0, row0 + rows) of the stem table (g's stem_cols, stem_step, stem_z0 and
+// has_heartwood, set by build_gpu_log_data) into out (rows × stem_cols × 2 floats); returns
+// the largest outer radius among them.
+float fill_stem_rows(const Stem& stem, const GpuLogData& g, int row0, int rows, float* out);
 
 // Pith distance beyond which knot k has no effect (the rule of WoodField).
 double knot_influence_end(const Knot& k);

@@ -420,8 +420,9 @@ Result<std::unique_ptr<WoodRenderer>> WoodRenderer::create(const LogModel& log,
   lo.index_dz_mm = options.index_dz_mm;
   lo.index_dr_mm = options.index_dr_mm;
   lo.index_sectors = options.index_sectors;
+  lo.stem_table = false;  // uploaded below in blocks of rows
   impl->data = build_gpu_log_data(*impl->field, lo);
-  const GpuLogData& d = impl->data;
+  GpuLogData& d = impl->data;
 
   impl->look = wood_look(options.species.empty() ? log.species : options.species);
   impl->strip = strip_stats(strips[0]);
@@ -438,8 +439,16 @@ Result<std::unique_ptr<WoodRenderer>> WoodRenderer::create(const LogModel& log,
   glGenTextures(1, &impl->stem_tex);
   glBindTexture(GL_TEXTURE_2D, impl->stem_tex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RG32F, d.stem_cols, d.stem_rows, 0, GL_RG, GL_FLOAT,
-               d.stem.data());
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RG32F, d.stem_cols, d.stem_rows, 0, GL_RG, GL_FLOAT, nullptr);
+  {
+    constexpr int kRowsPerBlock = 64;
+    std::vector<float> block(static_cast<size_t>(kRowsPerBlock) * d.stem_cols * 2);
+    for (int row0 = 0; row0 < d.stem_rows; row0 += kRowsPerBlock) {
+      const int rows = std::min(kRowsPerBlock, d.stem_rows - row0);
+      d.max_radius = std::max(d.max_radius, fill_stem_rows(log.stem, d, row0, rows, block.data()));
+      glTexSubImage2D(GL_TEXTURE_2D, 0, 0, row0, d.stem_cols, rows, GL_RG, GL_FLOAT, block.data());
+    }
+  }
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);

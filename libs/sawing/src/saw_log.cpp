@@ -6,6 +6,19 @@
 #include "sawyer/sawing/sawing.h"
 
 namespace sawyer::sawing {
+namespace {
+
+// v in single precision, rounded down / up: a bound stays a bound.
+float float_below(double v) {
+  const float f = static_cast<float>(v);
+  return static_cast<double>(f) > v ? std::nextafter(f, -HUGE_VALF) : f;
+}
+float float_above(double v) {
+  const float f = static_cast<float>(v);
+  return static_cast<double>(f) < v ? std::nextafter(f, HUGE_VALF) : f;
+}
+
+}  // namespace
 
 Vec2 outline_centre(const Stem& stem, int i) {
   const Vec2 pith = stem.pith[i];
@@ -107,8 +120,8 @@ SawLog::SawLog(const LogModel& model, const ScannerPosition& at, int knot_sample
 }
 
 void SawLog::release_tables() {
-  for (auto* v : {&rmin2_, &rmax2_, &smin2_, &smax2_, &smin_, &smax_, &run_min_, &run_max_})
-    std::vector<double>().swap(*v);
+  for (auto* v : {&rmin2_, &rmax2_}) std::vector<double>().swap(*v);
+  for (auto* v : {&smin2_, &smax2_, &run_min_, &run_max_}) std::vector<float>().swap(*v);
   std::vector<Vec2>().swap(line_at_slice_);
   std::vector<KnotPolyline>().swap(knots_);
 }
@@ -137,10 +150,10 @@ void SawLog::build(int knot_samples) {
   // table entries i0 = floor(ω·na/2π) and i0 + 1, so a sector's bounds are the min / max of the
   // entries from floor(ω_begin) to floor(ω_end) + 1, the azimuths widened by 1e-6 rad for
   // rounding, and the squared bounds by a relative 1e-9.
-  smin2_.assign(static_cast<size_t>(n) * kSectors, 0.0);
-  smax2_.assign(static_cast<size_t>(n) * kSectors, 0.0);
-  smin_.assign(static_cast<size_t>(n) * kSectors, 0.0);
-  smax_.assign(static_cast<size_t>(n) * kSectors, 0.0);
+  smin2_.assign(static_cast<size_t>(n) * kSectors, 0.0f);
+  smax2_.assign(static_cast<size_t>(n) * kSectors, 0.0f);
+  run_min_.assign(static_cast<size_t>(n) * kLevels * kSectors, 0.0f);
+  run_max_.assign(static_cast<size_t>(n) * kLevels * kSectors, 0.0f);
   for (int i = 0; i < n; ++i) {
     const std::vector<double>& rad = stem.radius[i];
     const int na = static_cast<int>(rad.size());
@@ -160,25 +173,20 @@ void SawLog::build(int knot_samples) {
         lo = std::min(lo, r);
         hi = std::max(hi, r);
       }
-      smin2_[static_cast<size_t>(i) * kSectors + j] = lo * lo * (1 - 1e-9);
-      smax2_[static_cast<size_t>(i) * kSectors + j] = hi * hi * (1 + 1e-9);
-      smin_[static_cast<size_t>(i) * kSectors + j] = lo * (1 - 1e-9);
-      smax_[static_cast<size_t>(i) * kSectors + j] = hi * (1 + 1e-9);
+      smin2_[static_cast<size_t>(i) * kSectors + j] = float_below(lo * lo * (1 - 1e-9));
+      smax2_[static_cast<size_t>(i) * kSectors + j] = float_above(hi * hi * (1 + 1e-9));
+      run_min_[static_cast<size_t>(i) * kLevels * kSectors + j] = float_below(lo * (1 - 1e-9));
+      run_max_[static_cast<size_t>(i) * kLevels * kSectors + j] = float_above(hi * (1 + 1e-9));
     }
   }
 
   // Bounds over runs of 2^l sectors (cyclic) for segment_surely_inside / _outside: the bound
   // over any run of sectors is the min (max) over two overlapping power-of-two runs, the same
   // number as a loop over the run gives, in two look-ups.
-  run_min_.assign(static_cast<size_t>(n) * kLevels * kSectors, 0.0);
-  run_max_.assign(static_cast<size_t>(n) * kLevels * kSectors, 0.0);
+  // (Level 0 is the sectors' own bounds, filled above.)
   for (int i = 0; i < n; ++i) {
-    double* mn = &run_min_[static_cast<size_t>(i) * kLevels * kSectors];
-    double* mx = &run_max_[static_cast<size_t>(i) * kLevels * kSectors];
-    for (int j = 0; j < kSectors; ++j) {
-      mn[j] = smin_[static_cast<size_t>(i) * kSectors + j];
-      mx[j] = smax_[static_cast<size_t>(i) * kSectors + j];
-    }
+    float* mn = &run_min_[static_cast<size_t>(i) * kLevels * kSectors];
+    float* mx = &run_max_[static_cast<size_t>(i) * kLevels * kSectors];
     for (int l = 1; l < kLevels; ++l) {
       const int half = 1 << (l - 1);
       for (int j = 0; j < kSectors; ++j) {

@@ -162,6 +162,15 @@ struct LogModel {
   MaterialSample material_at(const Vec3& p) const;
 };
 
+// The stem with its samples at most max_step_mm apart along z, for a scan whose slices are
+// finer than its outline needs (issue 24: a 1 mm scan of a 6 m log is 6 000 samples, and every
+// table built on the stem grows with them). Each new sample covers an equal share of the stem's
+// length (z_begin() and z_end() stay) and is the mean of the old samples under it, weighted by
+// how much of each old sample's step it covers: pith, outer and heartwood radius per angle,
+// and bark (over the old samples that have one, > 0). A stem already that coarse, or
+// max_step_mm <= 0, comes back as it is.
+Stem resample_stem(const Stem& stem, double max_step_mm);
+
 // Moves a model measured in a CT image's own axes (x = column·pixel, y = row·pixel from the
 // centre of pixel (0, 0), z from the first slice, rows along the scanner's +x and columns along
 // +y) into the scanner frame: adds `pixel0` (the scanner x, y of pixel (0, 0)) to every pith

@@ -141,8 +141,8 @@ class SawLog {
   // outside it by more than `margin`. False means "not sure".
   bool segment_surely_inside(int slice, Vec2 a, Vec2 b, double margin) const;
   bool segment_surely_outside(int slice, Vec2 a, Vec2 b, double margin) const;
-  // Frees the tables saw() reads (~45 KB a stem sample: 36 MB for a 4 m log at 5 mm, 270 MB at
-  // 1 mm) once a caller is done sawing; the centre line, bow, turn and usable diameter stay.
+  // Frees the tables saw() reads (~21 KB a stem sample: 17 MB for a 4 m log at 5 mm) once a
+  // caller is done sawing; the centre line, bow, turn and usable diameter stay.
   // saw() must not be called on it again.
   void release_tables();
 
@@ -163,10 +163,12 @@ class SawLog {
   // only computes the outline radius in between; the answer is the same either way.
   static constexpr int kSectors = 256;  // a power of two
   static constexpr int kLevels = 9;     // 2^(kLevels − 1) = kSectors
-  std::vector<double> smin2_, smax2_;   // [slice × kSectors], squared, with a safety margin
-  std::vector<double> smin_, smax_;     // the same, not squared (margin 1e-9 relative)
-  // smin_ / smax_ over the 2^l sectors from j on (cyclic): [(slice × kLevels + l) × kSectors + j]
-  std::vector<double> run_min_, run_max_;
+  // In single precision, rounded outwards (a bound only ever gets looser, so the answers stay
+  // those of the exact test; issue 24: the tables are the sawing model's memory).
+  std::vector<float> smin2_, smax2_;  // [slice × kSectors], squared, with a safety margin
+  // The sector bounds, not squared (margin 1e-9 relative), over the 2^l sectors from j on
+  // (cyclic): [(slice × kLevels + l) × kSectors + j]
+  std::vector<float> run_min_, run_max_;
   // The sectors a segment (relative to the pith) sweeps: first sector and count; false when it
   // passes too close to the pith to tell.
   static bool sector_span(double ax, double ay, double bx, double by, int* first, int* count);
@@ -332,7 +334,7 @@ inline bool SawLog::segment_surely_inside(int slice, Vec2 a, Vec2 b, double marg
   int j0, cnt;
   if (!sector_span(ax, ay, bx, by, &j0, &cnt)) return false;
   const int l = std::bit_width(static_cast<unsigned>(cnt)) - 1;
-  const double* lo = &run_min_[(static_cast<size_t>(slice) * kLevels + l) * kSectors];
+  const float* lo = &run_min_[(static_cast<size_t>(slice) * kLevels + l) * kSectors];
   return r <= lo[j0] && r <= lo[(j0 + cnt - (1 << l)) & (kSectors - 1)];
 }
 
@@ -349,7 +351,7 @@ inline bool SawLog::segment_surely_outside(int slice, Vec2 a, Vec2 b, double mar
   int j0, cnt;
   if (!sector_span(ax, ay, bx, by, &j0, &cnt)) return false;
   const int l = std::bit_width(static_cast<unsigned>(cnt)) - 1;
-  const double* hi = &run_max_[(static_cast<size_t>(slice) * kLevels + l) * kSectors];
+  const float* hi = &run_max_[(static_cast<size_t>(slice) * kLevels + l) * kSectors];
   return r > hi[j0] && r > hi[(j0 + cnt - (1 << l)) & (kSectors - 1)];
 }
 

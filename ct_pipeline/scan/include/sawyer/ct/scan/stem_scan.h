@@ -86,6 +86,11 @@ struct StemScanOptions {
   // The pith crops of every slice (pith_track.h CropStore) held in memory up to this; the rest
   // go to a temporary file until the track is refined.
   std::size_t crop_memory_bytes = std::size_t{32} << 20;
+  // The stem (StemScan::stem) samples at most this far apart along z (mm; resample_stem,
+  // log_model.h): finer slices are averaged, after the outliers along z are replaced; the
+  // records keep every slice. 0: one sample per slice. (scan_log sets it from
+  // ScanOptions::stem_step_mm.)
+  double stem_step_mm = 0;
 };
 
 struct StemSliceRecord {
@@ -96,7 +101,8 @@ struct StemSliceRecord {
   PithResult pith_refined;    // the last refinement pass's answer
   Vec2 pith;                  // after robust smoothing along z
   bool pith_outlier = false;  // the robust smoothing rejected the refined pith
-  ContourResult contour;      // around `pith` (re-centred from pith_raw)
+  ContourResult contour;      // around `pith` (re-centred from pith_raw); bark_mm emptied:
+  double bark_mm = 0;         // the median of the contour's bark over its angles (0: none seen)
   HeartwoodResult heartwood;  // around `pith`
   ScanLevels levels;          // this slice's own (valid = false where not measured)
   // Pith diagnostics for the QA verdict (issue 20): the cue `pith` follows here, a confidence
