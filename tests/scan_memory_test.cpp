@@ -126,6 +126,21 @@ TEST(ScanMemory, FineSlicesGiveAStemAtTheStepThatAgreesWithOnePerSlice) {
   }
 }
 
+TEST(ScanMemory, ANegativeStemStepIsRefusedNamingTheOption) {
+  test::TempDir dir;
+  const fs::path out = dir.path() / "out";
+  std::string text;
+  for (const std::string cmd : {"scan", "run --no-register"}) {
+    EXPECT_NE(test::run_sawyer(cmd + " " + test::quoted(dir.path()) + " -o " + test::quoted(out) +
+                                   " --stem-step -1",
+                               &text),
+              0);
+    EXPECT_NE(text.find("not in range"), std::string::npos) << text;
+    EXPECT_NE(text.find("--stem-step"), std::string::npos) << text;
+    EXPECT_FALSE(fs::exists(out)) << "nothing written";
+  }
+}
+
 TEST(ScanMemory, ABudgetTooSmallIsRefusedUpFrontNamingTheFigure) {
   test::TempDir dir;
   const fs::path ct = dir.path() / "ct", out = dir.path() / "run";
