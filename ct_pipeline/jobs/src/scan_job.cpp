@@ -30,7 +30,7 @@ Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
   const std::string name = (in.has_filename() ? in : in.parent_path()).filename().string();
   ScanOptions o;
   o.threads = c.threads;
-  o.stem_step_mm = c.stem_step_mm;
+  o.stem.stem_step_mm = c.stem_step_mm;
   o.id = c.id.empty() ? name : c.id;
   o.species = c.species;
   o.source_name = name;

@@ -65,9 +65,7 @@ Result<MemoryPlan> plan_memory(const VolumeGeometry& g, int threads, double budg
   const double slice_mb = static_cast<double>(g.width) * g.height * sizeof(float) / kMb;
   // Stem pass: the job queue (2 per thread), the pool and the tracker's few slices behind.
   p.slices_mb = (4.0 * threads + 6) * slice_mb;
-  const double spacing = g.slice_spacing() > 0 ? g.slice_spacing() : 1.0;
-  const double stem_samples =
-      stem_step_mm > spacing ? std::ceil(n * spacing / stem_step_mm) : static_cast<double>(n);
+  const int stem_samples = resampled_count(n, g.slice_spacing(), stem_step_mm);
   p.records_mb = (n * kRecordBytes + stem_samples * kStemSampleBytes) / kMb;
   const double all_crops_mb = n * static_cast<double>(pith_crop_bytes(g)) / kMb;
   // The log's radius is not known yet: the field of view's.

@@ -6,8 +6,6 @@
 #include <string>
 #include <utility>
 
-#include "sawyer/core/memory.h"
-
 namespace sawyer::ct {
 
 Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
@@ -22,15 +20,11 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
   StemScanOptions so = options.stem;
   so.threads = options.threads;
   so.volume = out.volume.get();
-  so.stem_step_mm = options.stem_step_mm;
   auto stem = scan_stem(src, so, [&](int done, int all) {
     if (progress) progress("stem", done, all);
   });
   if (!stem) return stem.error();
   out.stem = std::move(stem.value());
-  // What the stem pass freed (its per-slice stem, the refinement's outlines, the crops) goes
-  // back before the knot pass's windows are allocated beside it.
-  release_free_memory();
   const std::vector<double> view_radii = {30.0, 60.0, 90.0};
   if (options.find_knots) {
     if (progress) progress("knots", 0, 1);

@@ -202,10 +202,14 @@ MaterialSample LogModel::material_at(const Vec3& p) const {
   return out;
 }
 
+int resampled_count(int n, double dz_mm, double max_step_mm) {
+  if (!(max_step_mm > 0) || n < 3 || !(dz_mm < max_step_mm)) return n;
+  return std::min(n, std::max(2, static_cast<int>(std::ceil(n * dz_mm / max_step_mm - 1e-9))));
+}
+
 Stem resample_stem(const Stem& stem, double max_step_mm) {
   const int n = stem.slice_count();
-  if (!(max_step_mm > 0) || n < 3 || !(stem.dz_mm < max_step_mm)) return stem;
-  const int m = std::max(2, static_cast<int>(std::ceil(n * stem.dz_mm / max_step_mm - 1e-9)));
+  const int m = resampled_count(n, stem.dz_mm, max_step_mm);
   if (m >= n) return stem;
   Stem out;
   out.n_angles = stem.n_angles;

@@ -170,6 +170,8 @@ struct LogModel {
 // and bark (over the old samples that have one, > 0). A stem already that coarse, or
 // max_step_mm <= 0, comes back as it is.
 Stem resample_stem(const Stem& stem, double max_step_mm);
+// How many samples resample_stem gives a stem of n samples dz_mm apart (n when it keeps them).
+int resampled_count(int n, double dz_mm, double max_step_mm);
 
 // Moves a model measured in a CT image's own axes (x = column·pixel, y = row·pixel from the
 // centre of pixel (0, 0), z from the first slice, rows along the scanner's +x and columns along

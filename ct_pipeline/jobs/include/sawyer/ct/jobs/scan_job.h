@@ -24,7 +24,7 @@ struct ScanJobOptions {
   OpenOptions open;                            // series, spacings, rescale, the z policy
   int threads = 0;                             // 0: every core
   int qa_slices = 4;                           // cross-sections in qa/
-  double stem_step_mm = kDefaultStemStepMm;    // ScanOptions::stem_step_mm
+  double stem_step_mm = kDefaultStemStepMm;    // StemScanOptions::stem_step_mm
   // The memory budget, MB (memory_plan.h): the scan is fitted into it or refused before a
   // slice is read. report_mb: what the caller will add after the scan (`sawyer run`'s report).
   double memory_mb = kDefaultMemoryBudgetMb;

@@ -3,7 +3,7 @@
 // the knot pass's windows and sending the pith crops to a temporary file, or refuse before any
 // slice is read, naming the figure.
 //
-//   Result<MemoryPlan> plan = plan_memory(source.geometry(), threads, 2048, kReportMb, 5.0);
+//   Result<MemoryPlan> plan = plan_memory(source.geometry(), threads, 2048, kReportMb, 4.0);
 //   if (!plan) ...                        // "needs about 912 MB ..., over the budget of 600 MB"
 //   plan.value().apply(&scan_options);    // the knot windows and the crops' share
 //
@@ -51,7 +51,7 @@ struct MemoryPlan {
 
 // The plan for a scan of `geometry` on `threads` threads (0: every core) within `budget_mb`,
 // the report's share `report_mb` included (0 for a scan alone), with the stem sampled at most
-// `stem_step_mm` apart (ScanOptions::stem_step_mm). Errors: the budget is smaller
+// `stem_step_mm` apart (StemScanOptions::stem_step_mm). Errors: the budget is smaller
 // than the scan needs with its smallest knot window (300 mm) and every crop on disk; the
 // message gives the figure and the parts.
 Result<MemoryPlan> plan_memory(const VolumeGeometry& geometry, int threads, double budget_mb,

@@ -34,12 +34,15 @@
 
 namespace sawyer::ct {
 
-// 4 mm: finer than the bundled Gran_1 scan's 5 mm slices and an industrial intake scanner's
-// ~10 mm, so their stems keep a sample a slice; the outline and pith change little over it.
-inline constexpr double kDefaultStemStepMm = 4.0;
-
 struct ScanOptions {
-  StemScanOptions stem;  // its `volume` is set by scan_log
+  // Its `volume` is set by scan_log. The stem at most kDefaultStemStepMm apart (stem_scan.h): so
+  // that the stem, the knot pass's view of it and every table built on the model (sawing,
+  // rendering, maps) grow with the log's length, not its slices.
+  StemScanOptions stem = [] {
+    StemScanOptions s;
+    s.stem_step_mm = kDefaultStemStepMm;
+    return s;
+  }();
   KnotScanOptions knots;
   QaOptions qa;
   bool find_knots = true;
@@ -48,12 +51,6 @@ struct ScanOptions {
   // are kept: the knot pass reads the scan again in windows (knot_detect.h).
   bool keep_volume = false;
   int threads = 0;  // 0: every core; overrides the passes' own
-  // The stem (ScanResult::stem.stem and the model's) samples at most this far apart along z
-  // (mm): a scan with finer slices has them averaged (resample_stem, log_model.h), so that the
-  // stem, the knot pass's view of it and every table built on the model (sawing, rendering,
-  // maps) grow with the log's length, not its slices. The per-slice records keep every slice.
-  // 0: one sample per slice. Overrides stem.stem_step_mm.
-  double stem_step_mm = kDefaultStemStepMm;
   // The model's id, species and the name its provenance gives the source ("" : "scan").
   std::string id, species = "unknown", source_name;
 };
