@@ -139,6 +139,20 @@ TEST(ScanMemory, ANegativeStemStepIsRefusedNamingTheOption) {
     EXPECT_NE(text.find("--stem-step"), std::string::npos) << text;
     EXPECT_FALSE(fs::exists(out)) << "nothing written";
   }
+  // NaN passes CLI11's range; the scan refuses it before reading a slice.
+  const fs::path ct = dir.path() / "ct";
+  ASSERT_EQ(test::run_sawyer(
+                "phantom " + test::quoted(test::sample_log("gran1_spruce") / "log.json") + " -o " +
+                    test::quoted(ct) + " --size 128 --pixel-mm 3.2 --from-mm 1000 --to-mm 1100",
+                &text),
+            0)
+      << text;
+  EXPECT_NE(
+      test::run_sawyer("scan " + test::quoted(ct) + " -o " + test::quoted(out) + " --stem-step nan",
+                       &text),
+      0);
+  EXPECT_NE(text.find("stem step: must be 0 or more mm"), std::string::npos) << text;
+  EXPECT_FALSE(fs::exists(out)) << "nothing written";
 }
 
 TEST(ScanMemory, ABudgetTooSmallIsRefusedUpFrontNamingTheFigure) {

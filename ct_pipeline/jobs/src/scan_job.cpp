@@ -34,6 +34,9 @@ Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
   o.id = c.id.empty() ? name : c.id;
   o.species = c.species;
   o.source_name = name;
+  // CLI11's range lets NaN through.
+  if (!(c.stem_step_mm >= 0))
+    return Error("stem step", "must be 0 or more mm").with_context(c.input);
   Result<MemoryPlan> plan =
       plan_memory(job.source->geometry(), c.threads, c.memory_mb, c.report_mb, c.stem_step_mm);
   if (!plan) return plan.error().with_context(c.input);
