@@ -5,8 +5,9 @@
 // Data (filled by libs/render/src/gpu_log_data.cpp):
 //   pith[]      pith (x, y) every u_pith_step mm of height from u_pith_z0 (Catmull-Rom of the
 //               model's samples, linear between these);
-//   u_stem      RG32F texture: outer radius and heartwood radius (0 = none), columns = azimuth
-//               (wraps), rows every u_stem_step mm from u_stem_z0;
+//   u_stem      RG16 texture: outer radius and heartwood radius (0 = none) as fractions of
+//               u_stem_scale mm, columns = azimuth (wraps), rows every u_stem_step mm from
+//               u_stem_z0;
 //   knots[]     per knot: diameter profile, r_dead, r_end, noise seed, where its track starts;
 //   tracks[]    per knot: the axis (x, y, z, unwrapped azimuth) every u_track_step mm of pith
 //               distance from 0 to the end of its influence;
@@ -47,6 +48,7 @@ uniform int u_pith_count;
 uniform float u_stem_z0;
 uniform float u_stem_step;
 uniform float u_stem_rows;
+uniform float u_stem_scale;
 uniform float u_r_ref;
 uniform float u_knot_noise;
 uniform float u_track_step;
@@ -179,7 +181,7 @@ WoodSample wood_stem(vec3 p) {
   s.omega = w;
   s.radial = r > 0.0 ? d / r : vec2(1.0, 0.0);
   vec2 tc = vec2(w / WOOD_TWO_PI, ((p.z - u_stem_z0) / u_stem_step + 0.5) / u_stem_rows);
-  vec2 rh = texture(u_stem, tc).xy;
+  vec2 rh = texture(u_stem, tc).xy * u_stem_scale;
   s.radius = rh.x;
   s.heartwood = rh.y;
   s.bark = wood_bark_at(p.z);

@@ -23,9 +23,9 @@ double knot_influence_end(const Knot& k) {
   return k.r_end + 2.0 * 0.5 * k.max_diameter() + 5.0 + 1.0;
 }
 
-double GpuLogData::bytes() const {
-  const double stem_floats = 2.0 * stem_cols * stem_rows;  // uploaded in blocks or whole
-  return 4.0 * (pith.size() + stem_floats + tracks.size() + cell_start.size() + cell_knots.size()) +
+double GpuLogData::bytes(double stem_texel_bytes) const {
+  const double stem = stem_texel_bytes * stem_cols * stem_rows;  // uploaded in blocks or whole
+  return 4.0 * (pith.size() + tracks.size() + cell_start.size() + cell_knots.size()) + stem +
          sizeof(GpuKnot) * knots.size();
 }
 

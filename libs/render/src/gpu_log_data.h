@@ -47,7 +47,8 @@ struct GpuLogData {
   float z_begin = 0, z_end = 0, max_radius = 0;
   Vec2 mean_pith;
 
-  double bytes() const;
+  // Bytes on the GPU, the stem table at `stem_texel_bytes` a texel (WoodRenderer's RG16: 4).
+  double bytes(double stem_texel_bytes = 8) const;
 };
 
 struct GpuLayoutOptions {

@@ -192,6 +192,7 @@ struct WoodRenderer::Impl {
   StripStats strip;
   std::vector<float> bark;  // bark thickness at the stem samples (empty: the model has none)
   GLuint stem_tex = 0, strip_tex[3] = {};
+  float stem_scale = 1;  // the stem texture's radii are fractions of this (mm)
   GLuint vao = 0, vbo = 0, surface_vbo = 0;
   GLsizei surface_count = 0;
 
@@ -292,6 +293,7 @@ void WoodRenderer::Impl::set_uniforms(const Camera& cam, const Viewport& vp,
   glUniform1f(loc("u_stem_z0"), d.stem_z0);
   glUniform1f(loc("u_stem_step"), d.stem_step);
   glUniform1f(loc("u_stem_rows"), static_cast<float>(d.stem_rows));
+  glUniform1f(loc("u_stem_scale"), stem_scale);
   glUniform1f(loc("u_r_ref"), d.r_ref);
   glUniform1f(loc("u_knot_noise"), d.knot_noise);
   glUniform1f(loc("u_track_step"), d.track_step);
@@ -439,14 +441,34 @@ Result<std::unique_ptr<WoodRenderer>> WoodRenderer::create(const LogModel& log,
   glGenTextures(1, &impl->stem_tex);
   glBindTexture(GL_TEXTURE_2D, impl->stem_tex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RG32F, d.stem_cols, d.stem_rows, 0, GL_RG, GL_FLOAT, nullptr);
+  // The radii as 16-bit fractions of stem_scale (GL_RG16, half the memory of RG32F: the texture
+  // grows with the log's length, 2.3 MB a metre at a 4 mm stem step; issue 24). stem_scale is
+  // well above any radius the bicubic surface reaches between its samples, and its steps
+  // (stem_scale / 65535, ~3 µm for a 130 mm radius) are far below a pixel of any view.
+  {
+    double most = 1.0;
+    for (const std::vector<double>& row : log.stem.radius)
+      for (double v : row) most = std::max(most, v);
+    for (const std::vector<double>& row : log.stem.heartwood)
+      for (double v : row) most = std::max(most, v);
+    impl->stem_scale = static_cast<float>(1.5 * most);
+  }
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RG16, d.stem_cols, d.stem_rows, 0, GL_RG, GL_UNSIGNED_SHORT,
+               nullptr);
   {
     constexpr int kRowsPerBlock = 64;
     std::vector<float> block(static_cast<size_t>(kRowsPerBlock) * d.stem_cols * 2);
+    std::vector<std::uint16_t> texels(block.size());
+    const float to_unit = 65535.0f / impl->stem_scale;
     for (int row0 = 0; row0 < d.stem_rows; row0 += kRowsPerBlock) {
       const int rows = std::min(kRowsPerBlock, d.stem_rows - row0);
       d.max_radius = std::max(d.max_radius, fill_stem_rows(log.stem, d, row0, rows, block.data()));
-      glTexSubImage2D(GL_TEXTURE_2D, 0, 0, row0, d.stem_cols, rows, GL_RG, GL_FLOAT, block.data());
+      const size_t count = static_cast<size_t>(rows) * d.stem_cols * 2;
+      for (size_t i = 0; i < count; ++i)
+        texels[i] =
+            static_cast<std::uint16_t>(std::lround(std::clamp(block[i] * to_unit, 0.0f, 65535.0f)));
+      glTexSubImage2D(GL_TEXTURE_2D, 0, 0, row0, d.stem_cols, rows, GL_RG, GL_UNSIGNED_SHORT,
+                      texels.data());
     }
   }
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -583,7 +605,7 @@ void WoodRenderer::Impl::release_uploaded_arrays() {
   s.mean_per_cell = s.cells ? static_cast<double>(s.entries) / s.cells : 0;
   for (int c = 0; c < s.cells; ++c)
     s.max_per_cell = std::max(s.max_per_cell, d.cell_start[c + 1] - d.cell_start[c]);
-  s.gpu_bytes = d.bytes();
+  s.gpu_bytes = d.bytes(4);  // the stem texture in RG16
   data.pith = {};
   data.stem = {};
   data.knots = {};
