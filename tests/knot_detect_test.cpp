@@ -215,6 +215,36 @@ TEST(KnotDetect, Pine8WhorlDoubledNoise) {
   EXPECT_LE(sc.spurious, 3);
 }
 
+// The whorl at slices 1 mm apart: by default the grid averages them in pairs into planes 2 mm
+// apart (KnotDetectOptions::grid_dz_mm). It holds half the samples of one plane a slice and
+// finds the same knots, as well placed.
+TEST(KnotDetect, FineSlicesAveragedIntoPlanesFindTheKnotsOfOnePlaneASlice) {
+  const LogModel log = test::sample_model("pine_8");
+  PhantomOptions o = section_options(1250, 1450);
+  o.slice_spacing_mm = 1.0;
+  Scene s = detect(log, o);
+  ASSERT_EQ(s.volume.slice_count(), 201);
+  KnotDetectSummary paired, single;
+  s.traces = detect_knots(s.volume, s.truth.stem, {}, &paired);
+  const Score sp = score(s, "pine_8 1 mm slices, planes 2 mm apart");
+  KnotDetectOptions one;
+  one.grid_dz_mm = 0;
+  s.traces = detect_knots(s.volume, s.truth.stem, one, &single);
+  const Score ss = score(s, "pine_8 1 mm slices, one plane a slice");
+  std::printf("grid: %zu bytes in planes 2 mm apart, %zu one plane a slice\n", paired.grid_bytes,
+              single.grid_bytes);
+  EXPECT_EQ(knot_plane_run(s.volume.geometry(), {}), 2);
+  EXPECT_EQ(knot_plane_run(s.volume.geometry(), one), 1);
+  EXPECT_NEAR(static_cast<double>(paired.grid_bytes) / single.grid_bytes, 0.5, 0.02);
+  EXPECT_GE(sp.truth, 5);
+  EXPECT_EQ(sp.found, sp.truth);
+  EXPECT_EQ(ss.found, ss.truth);
+  EXPECT_LE(sp.spurious, ss.spurious + 1);
+  EXPECT_LE(median(sp.dw_deg), 3.0);
+  EXPECT_LE(median(sp.dz_mm), 4.0);
+  EXPECT_LE(sp.diameter_rmse, std::max(4.0, ss.diameter_rmse + 1.0));
+}
+
 // Real spruce geometry (Gran_1, scattered knots of 14-18 mm, the phantom's default dry core);
 // then the same volume with a stem that carries no heartwood radius, so that the detector
 // estimates the border itself.

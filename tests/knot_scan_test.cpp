@@ -194,5 +194,49 @@ TEST(KnotScan, StreamedWindowsFindTheKnotsTheKeptVolumeFinds) {
   EXPECT_EQ(va.grey, vb.grey) << "r " << va.r_mm;
 }
 
+// The same at slices 1 mm apart (and 1.6 mm pixels), averaged in pairs into the grid's planes
+// (grid_dz_mm): the streamed windows (read again, in whole planes) and the kept volume build the
+// same planes.
+TEST(KnotScan, StreamedWindowsOfPairedFineSlicesFindTheKnotsTheKeptVolumeFinds) {
+  const LogModel log = test::sample_model("gran1_spruce");
+  PhantomOptions o;
+  o.image_size = 256;
+  o.pixel_mm = 1.6;
+  o.slice_spacing_mm = 1.0;
+  o.from_mm = 1602.5;
+  o.to_mm = 2397.5;
+  o.seed = 5;
+  auto ph = Phantom::create(log, o);
+  ASSERT_TRUE(ph.ok()) << ph.error().message();
+  PhantomSource src(*ph.value(), true);
+  ASSERT_EQ(knot_plane_run(src.geometry(), {}), 2);
+  ScanOptions kept_o;
+  kept_o.keep_volume = true;
+  auto kept = scan_log(src, kept_o);
+  ASSERT_TRUE(kept.ok()) << kept.error().message();
+  ScanOptions streamed_o;
+  streamed_o.knots.window.core_mm = 150;
+  auto streamed = scan_log(src, streamed_o);
+  ASSERT_TRUE(streamed.ok()) << streamed.error().message();
+  EXPECT_EQ(kept.value().knots.detect.windows, 1);
+  EXPECT_GE(streamed.value().knots.detect.windows, 3);
+  const int planes = (src.geometry().slice_count() + 1) / 2;  // slices in pairs
+  EXPECT_EQ(kept.value().knots.detect.slices, planes);
+  EXPECT_EQ(streamed.value().knots.detect.slices, planes);
+  const std::vector<Knot>& a = kept.value().knots.knots;
+  const std::vector<Knot>& b = streamed.value().knots.knots;
+  ASSERT_GE(a.size(), 4u);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(a[i].height_at(40), b[i].height_at(40), 0.5) << "knot " << a[i].id;
+    EXPECT_NEAR(angle_diff(a[i].azimuth_at(40), b[i].azimuth_at(40)), 0.0, 0.01)
+        << "knot " << a[i].id;
+    EXPECT_NEAR(a[i].r_end, b[i].r_end, 1.0) << "knot " << a[i].id;
+  }
+  const UnrolledView& va = kept.value().unrolled.front();
+  const UnrolledView& vb = streamed.value().unrolled.front();
+  EXPECT_EQ(va.grey, vb.grey) << "r " << va.r_mm;
+}
+
 }  // namespace
 }  // namespace sawyer::ct

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -329,6 +330,55 @@ TEST(ScanLog, ADefaultPhantomSectionIsScannedAndTrusted) {
   EXPECT_LT(err[err.size() / 2], 0.5);
   EXPECT_NEAR(s.log.stem.pith[0].x, s.stem.stem.pith[0].x + g.origin.x, 1e-9);
   EXPECT_NE(scan_brief(s, "section").find("QA: trusted"), std::string::npos);
+}
+
+// A scan that keeps the outline and heartwood radii of the QA images' slices only
+// (ScanOptions::outline_slices, as `sawyer scan` and `sawyer run` do) comes to the same verdict,
+// per-slice figures, model and knots as one that keeps every slice's.
+TEST(ScanLog, RecordsKeepingOnlyTheQaImagesOutlinesGiveTheSameVerdictAndModel) {
+  const LogModel& truth_log = test::sample_model("pine_8");
+  PhantomOptions o = section_options(256, 1.6, 1800);
+  o.moisture = Moisture::kDried;  // a verdict with failed stages and suspect slices to compare
+  auto ph = Phantom::create(truth_log, o);
+  ASSERT_TRUE(ph) << ph.error().message();
+  PhantomSource src(*ph.value(), true);
+  ScanOptions every;
+  auto a = scan_log(src, every);
+  ASSERT_TRUE(a) << a.error().message();
+  ScanOptions few;
+  few.outline_slices = 3;
+  auto b = scan_log(src, few);
+  ASSERT_TRUE(b) << b.error().message();
+  const ScanResult &sa = a.value(), &sb = b.value();
+  const int n = static_cast<int>(sa.stem.slices.size());
+  ASSERT_EQ(n, 61);
+  const std::vector<int> kept = qa_image_slices(n, 3);
+  ASSERT_EQ(kept.size(), 3u);
+  for (int i = 0; i < n; ++i) {
+    const bool keep = std::find(kept.begin(), kept.end(), i) != kept.end();
+    const StemSliceRecord &ra = sa.stem.slices[static_cast<size_t>(i)],
+                          &rb = sb.stem.slices[static_cast<size_t>(i)];
+    EXPECT_EQ(rb.contour.radius.empty(), !keep) << "slice " << i;
+    if (keep) EXPECT_EQ(ra.contour.radius, rb.contour.radius) << "slice " << i;
+    EXPECT_EQ(ra.heartwood.present, rb.heartwood.present) << "slice " << i;
+    EXPECT_EQ(ra.contour.bark_seen, rb.contour.bark_seen) << "slice " << i;
+    const QaSlice &qa = sa.qa.slices[static_cast<size_t>(i)],
+                  &qb = sb.qa.slices[static_cast<size_t>(i)];
+    EXPECT_EQ(qa.roughness_mm, qb.roughness_mm) << "slice " << i;
+    EXPECT_EQ(qa.jump_mm_per_mm, qb.jump_mm_per_mm) << "slice " << i;
+    EXPECT_EQ(qa.eccentricity, qb.eccentricity) << "slice " << i;
+    EXPECT_EQ(qa.pith_why, qb.pith_why) << "slice " << i;
+    EXPECT_EQ(qa.outline_suspect, qb.outline_suspect) << "slice " << i;
+  }
+  ASSERT_TRUE(sa.log.qa && sb.log.qa);
+  std::printf(
+      "every slice's outline: %s, outline suspect share %.2f; the QA images' only: %s, "
+      "%.2f\n",
+      qa_headline(*sa.log.qa).c_str(), sa.qa.outline_suspect_share, qa_headline(*sb.log.qa).c_str(),
+      sb.qa.outline_suspect_share);
+  EXPECT_EQ(log_to_json(sa.log), log_to_json(sb.log)) << "the same model and verdict";
+  EXPECT_EQ(sa.qa.outline_suspect_share, sb.qa.outline_suspect_share);
+  EXPECT_EQ(sa.knots.knots.size(), sb.knots.knots.size());
 }
 
 // The outline's RMS error (mm) against the phantom's truth over the scanned slices.

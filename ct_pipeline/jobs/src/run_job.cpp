@@ -63,7 +63,7 @@ report::RunRecord run_record(const RunJobOptions& c, const ScanJob& scan, const 
                     zr.gaps,      zr.widest_gap_mm, zr.widest_gap_z0};
   r.scanner_frame = scan.log().scanner_frame;
   in.scan_checksum = checksum;
-  r.slices = scan.scan.stem.slices.size();
+  r.slices = static_cast<std::size_t>(scan.source->geometry().slice_count());
   r.knots = scan.log().knots.size();
   r.qa = scan.log().qa;
   in.date = date;
@@ -111,15 +111,19 @@ reg::LogRecord register_record(const RunOutcome& run, const std::string& source,
   return r;
 }
 
-// What a run's files hold once written: the slices' outline, bark and heartwood arrays, the
-// scan pass's own copy of the stem (the log model keeps its own), the QA's unrolled views, the
-// knots' traces and fit reports. The records' piths and counts and the log model stay.
+// What a run's files hold once written: the per-slice records and QA figures, the scan pass's
+// own copy of the stem, the log model's outline, heartwood and bark (log.json holds them, and the
+// report reads them back), the QA's unrolled views, the knots' traces and fit reports. The log
+// model's pith, knots and QA verdict stay, for the run's record and summary (issue 24: each of
+// these grows with the log's length, and the report would stack on them).
 void release_written_detail(ScanResult& scan) {
-  for (StemSliceRecord& r : scan.stem.slices) {
-    r.contour = ContourResult{};
-    r.heartwood = HeartwoodResult{};
-  }
+  std::vector<StemSliceRecord>().swap(scan.stem.slices);
+  std::vector<QaSlice>().swap(scan.qa.slices);
   scan.stem.stem = Stem{};
+  Stem& st = scan.log.stem;
+  std::vector<std::vector<double>>().swap(st.radius);
+  std::vector<std::vector<double>>().swap(st.heartwood);
+  std::vector<double>().swap(st.bark_mm);
   std::vector<UnrolledView>().swap(scan.unrolled);
   std::vector<KnotTrace>().swap(scan.knots.traces);
   std::vector<KnotFitReport>().swap(scan.knots.fits);

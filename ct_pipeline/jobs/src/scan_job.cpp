@@ -34,6 +34,7 @@ Result<ScanJob> scan_ct(const ScanJobOptions& c, const ScanProgress& progress,
   o.id = c.id.empty() ? name : c.id;
   o.species = c.species;
   o.source_name = name;
+  o.outline_slices = c.qa_slices;  // the records' radii: only the QA images' slices keep them
   // CLI11's range lets NaN through.
   if (!(c.stem_step_mm >= 0))
     return Error("stem step", "must be 0 or more mm").with_context(c.input);

@@ -144,11 +144,43 @@ PlaneRef plane_ref(const LogPlane& p) {
 }
 PlaneRef plane_ref(const Slice& s) { return {nullptr, s.hu.data(), 0, 0, s.width, s.height}; }
 
-// The grid of slices [a, b) of `geo` with everything but the samples: the outline and wood
-// classes of every (slice, azimuth), the shells; samples all kInvalid (unroll_slice fills them).
-// `kept(i)` (scan index) says whether slice i has a log to unroll.
+// Planes of the grid: runs of `run` consecutive slices of `geo` (the last may be shorter).
+struct Planes {
+  int run = 1, slices = 0;
+  int count() const { return (slices + run - 1) / run; }
+  int first(int p) const { return p * run; }
+  int end(int p) const { return std::min(slices, (p + 1) * run); }
+};
+
+Planes planes_of(const VolumeGeometry& geo, const KnotDetectOptions& o) {
+  Planes pl;
+  pl.slices = geo.slice_count();
+  const double dz = geo.slice_spacing();
+  if (o.grid_dz_mm > 0 && dz > 0)
+    pl.run = std::max(1, static_cast<int>(std::floor(o.grid_dz_mm / dz + 1e-6)));
+  return pl;
+}
+
+// The height of plane p: its slices' mean.
+double plane_z(const VolumeGeometry& geo, const Planes& pl, int p) {
+  double s = 0;
+  for (int i = pl.first(p); i < pl.end(p); ++i) s += geo.z[static_cast<size_t>(i)];
+  return s / (pl.end(p) - pl.first(p));
+}
+
+// Whether slice i (scan index) is unrolled: it has a log (`kept`) within the stem's heights.
 template <class Kept>
-Grid make_grid(const VolumeGeometry& geo, int a, int b, const Stem& stem,
+bool unrolled(const VolumeGeometry& geo, const Stem& stem, const Kept& kept, int i) {
+  const double z = geo.z[static_cast<size_t>(i)];
+  return kept(i) && z >= stem.z_begin() && z <= stem.z_end();
+}
+
+// The grid of planes [a, b) of `geo` with everything but the samples: the outline and wood
+// classes of every (plane, azimuth), the shells; samples all kInvalid (unroll_plane fills them).
+// `kept(i)` (scan index) says whether slice i has a log to unroll; a plane is live when one of
+// its slices is.
+template <class Kept>
+Grid make_grid(const VolumeGeometry& geo, const Planes& pl, int a, int b, const Stem& stem,
                const KnotDetectOptions& o, int threads, const Kept& kept) {
   Grid g;
   g.ns = b - a;
@@ -156,13 +188,14 @@ Grid make_grid(const VolumeGeometry& geo, int a, int b, const Stem& stem,
   g.dw = kTwoPi / g.nw;
   g.dr = o.dr_mm > 0 ? o.dr_mm : 1.0;
   g.r0 = g.dr;
-  g.z.assign(geo.z.begin() + a, geo.z.begin() + b);
+  g.z.resize(static_cast<size_t>(g.ns));
   const size_t nq = static_cast<size_t>(g.ns) * g.nw;
   std::vector<float> outer(nq, 0.f), heart(nq, 0.f);
   g.live.assign(static_cast<size_t>(g.ns), 0);
   for (int i = 0; i < g.ns; ++i) {
-    const double z = g.z[static_cast<size_t>(i)];
-    g.live[static_cast<size_t>(i)] = kept(a + i) && z >= stem.z_begin() && z <= stem.z_end();
+    g.z[static_cast<size_t>(i)] = plane_z(geo, pl, a + i);
+    for (int s = pl.first(a + i); s < pl.end(a + i); ++s)
+      if (unrolled(geo, stem, kept, s)) g.live[static_cast<size_t>(i)] = 1;
   }
   parallel_for(g.ns, threads, [&](int i) {
     if (!g.live[static_cast<size_t>(i)]) return;
@@ -219,10 +252,13 @@ Grid make_grid(const VolumeGeometry& geo, int a, int b, const Stem& stem,
   return g;
 }
 
-// Grid slice i's samples from its pixels: bilinear, inside the outline's shells.
-void unroll_slice(Grid& g, int i, const PlaneRef& pl, const Stem& stem) {
-  if (!g.live[static_cast<size_t>(i)] || pl.width < 2) return;
-  const Vec2 p = stem.pith_at(g.z[static_cast<size_t>(i)]);
+// The samples of grid plane i from one slice's pixels (the slice at height z, around the pith
+// there): bilinear, inside the plane's outline shells; sink(j, k, value) takes each.
+template <class Sink>
+void sample_slice(const Grid& g, int i, double z, const PlaneRef& pl, const Stem& stem,
+                  const Sink& sink) {
+  if (pl.width < 2) return;
+  const Vec2 p = stem.pith_at(z);
   const double c0 = p.x / g.sx - pl.x0, r0 = p.y / g.sy - pl.y0;
   for (int k = 0; k < g.nw; ++k) {
     const int jend = g.out[static_cast<size_t>(i) * g.nw + k];
@@ -237,15 +273,51 @@ void unroll_slice(Grid& g, int i, const PlaneRef& pl, const Stem& stem) {
       const float v10 = pl.at(v + pl.width), v11 = pl.at(v + pl.width + 1);
       const float a = v00 + fc * (v01 - v00);
       const float b = v10 + fc * (v11 - v10);
-      g.hu[g.at(i, j, k)] = round_hu(a + fr * (b - a));
+      sink(j, k, a + fr * (b - a));
     }
   }
 }
 
+// Grid plane i (grid index; `first` its first slice's scan index) from its slices' pixels:
+// slice(s) gives scan slice s's PlaneRef, and only the slices `use(s)` says are sampled. One
+// slice: its samples; several: their mean where any sampled it.
+template <class SliceAt, class Use>
+void unroll_plane(Grid& g, int i, const VolumeGeometry& geo, const Planes& planes, int plane,
+                  const Stem& stem, const SliceAt& slice, const Use& use) {
+  if (!g.live[static_cast<size_t>(i)]) return;
+  const int s0 = planes.first(plane), s1 = planes.end(plane);
+  if (s1 - s0 == 1) {
+    sample_slice(g, i, geo.z[static_cast<size_t>(s0)], slice(s0), stem,
+                 [&](int j, int k, float v) { g.hu[g.at(i, j, k)] = round_hu(v); });
+    return;
+  }
+  const size_t n = static_cast<size_t>(g.nr) * g.nw;
+  std::vector<float> sum(n, 0.f);
+  std::vector<std::uint8_t> count(n, 0);
+  for (int s = s0; s < s1; ++s) {
+    if (!use(s)) continue;
+    sample_slice(g, i, geo.z[static_cast<size_t>(s)], slice(s), stem, [&](int j, int k, float v) {
+      const size_t q = static_cast<size_t>(j) * g.nw + k;
+      sum[q] += v, ++count[q];
+    });
+  }
+  for (int j = 0; j < g.nr; ++j)
+    for (int k = 0; k < g.nw; ++k) {
+      const size_t q = static_cast<size_t>(j) * g.nw + k;
+      if (count[q]) g.hu[g.at(i, j, k)] = round_hu(sum[q] / count[q]);
+    }
+}
+
 Grid unroll(const LogVolume& volume, const Stem& stem, const KnotDetectOptions& o, int threads) {
-  Grid g = make_grid(volume.geometry(), 0, volume.slice_count(), stem, o, threads,
-                     [&](int i) { return volume.plane(i).width > 1; });
-  parallel_for(g.ns, threads, [&](int i) { unroll_slice(g, i, plane_ref(volume.plane(i)), stem); });
+  const VolumeGeometry& geo = volume.geometry();
+  const Planes planes = planes_of(geo, o);
+  auto kept = [&](int s) { return volume.plane(s).width > 1; };
+  Grid g = make_grid(geo, planes, 0, planes.count(), stem, o, threads, kept);
+  parallel_for(g.ns, threads, [&](int i) {
+    unroll_plane(
+        g, i, geo, planes, i, stem, [&](int s) { return plane_ref(volume.plane(s)); },
+        [&](int s) { return unrolled(geo, stem, kept, s); });
+  });
   return g;
 }
 
@@ -1308,16 +1380,22 @@ double spacing_of(const VolumeGeometry& g) {
 }
 }  // namespace
 
-std::size_t knot_grid_bytes(int slices, double r_max_mm, const KnotDetectOptions& o) {
+std::size_t knot_grid_bytes(int planes, double r_max_mm, const KnotDetectOptions& o) {
   const double dr = o.dr_mm > 0 ? o.dr_mm : 1.0;
   const double shells = std::max(1.0, std::ceil(r_max_mm / dr));
-  const double samples = static_cast<double>(slices) * shells * std::max(8, o.n_omega);
+  const double samples = static_cast<double>(planes) * shells * std::max(8, o.n_omega);
   return static_cast<std::size_t>(samples * 2 * 1.3);
 }
 
-int knot_window_slices(const VolumeGeometry& geometry, const KnotWindowOptions& window) {
+int knot_plane_run(const VolumeGeometry& geometry, const KnotDetectOptions& options) {
+  return planes_of(geometry, options).run;
+}
+
+int knot_window_planes(const VolumeGeometry& geometry, const KnotWindowOptions& window,
+                       const KnotDetectOptions& options) {
+  const Planes planes = planes_of(geometry, options);
   int most = 0;
-  for (const Window& w : plan_windows(geometry.slice_count(), spacing_of(geometry), window))
+  for (const Window& w : plan_windows(planes.count(), planes.run * spacing_of(geometry), window))
     most = std::max(most, w.read_end - w.read_begin);
   return most;
 }
@@ -1343,11 +1421,16 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
   if (has_log && static_cast<int>(has_log->size()) != n)
     return Error("knot scan", "the slice mask does not match the scan's slices");
   auto kept = [&](int i) { return !has_log || (*has_log)[static_cast<size_t>(i)] != 0; };
-  const double dz = spacing_of(geo);
-  const std::vector<Window> windows = plan_windows(n, dz, window);
-  const int batch = 4 * threads;
-  std::vector<Slice> slices(static_cast<size_t>(batch));
-  std::vector<int> at(static_cast<size_t>(batch));
+  // Windows of planes (runs of slices, KnotDetectOptions::grid_dz_mm), read a batch of whole
+  // planes at a time.
+  const Planes planes = planes_of(geo, options);
+  const double dz = planes.run * spacing_of(geo);
+  const std::vector<Window> windows = plan_windows(planes.count(), dz, window);
+  const int batch = std::max(threads, 4 * threads / planes.run);  // planes
+  // The b-th plane of a batch has its slices at b * run + (slice - its first): `at` holds the
+  // scan index of each slice read, -1 where none was.
+  std::vector<Slice> slices(static_cast<size_t>(batch * planes.run));
+  std::vector<int> at(slices.size(), -1);
   int visited = -1;
   double weight = 0;
   KnotDetectSummary mean;  // signal figures, weighted by the windows' own slices
@@ -1358,7 +1441,7 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
   for (size_t wi = 0; wi < windows.size(); ++wi) {
     const Window& w = windows[wi];
     auto t0 = Clock::now();
-    Grid g = make_grid(geo, w.read_begin, w.read_end, stem, options, threads, kept);
+    Grid g = make_grid(geo, planes, w.read_begin, w.read_end, stem, options, threads, kept);
     g.core_lo = w.core_begin - w.read_begin, g.core_hi = w.core_end - w.read_begin;
     // Shells beyond the outline are never sampled, and both grids reach every slice's outline.
     int i = w.read_begin;
@@ -1369,25 +1452,40 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
                     &g.hu[g.at(i - w.read_begin, j, 0)]);
     }
     while (i < w.read_end) {
-      int m = 0;
+      std::vector<int> todo;  // planes of this batch with a slice to unroll
       const auto tr = Clock::now();
-      for (; i < w.read_end && m < batch; ++i) {
+      for (; i < w.read_end && static_cast<int>(todo.size()) < batch; ++i) {
         if (!g.live[static_cast<size_t>(i - w.read_begin)]) continue;
-        const Status st = source.read(i, slices[static_cast<size_t>(m)]);
-        if (!st) return st.error();
-        at[static_cast<size_t>(m++)] = i;
+        const size_t base = todo.size() * static_cast<size_t>(planes.run);
+        for (int s = planes.first(i); s < planes.end(i); ++s) {
+          const size_t q = base + static_cast<size_t>(s - planes.first(i));
+          at[q] = -1;
+          if (!unrolled(geo, stem, kept, s)) continue;
+          const Status st = source.read(s, slices[q]);
+          if (!st) return st.error();
+          at[q] = s;
+        }
+        todo.push_back(i);
       }
       sum.read_s += std::chrono::duration<double>(Clock::now() - tr).count();
-      parallel_for(m, threads, [&](int b) {
-        unroll_slice(g, at[static_cast<size_t>(b)] - w.read_begin,
-                     plane_ref(slices[static_cast<size_t>(b)]), stem);
+      auto slot = [&](int b, int s) {
+        return static_cast<size_t>(b) * planes.run +
+               static_cast<size_t>(s - planes.first(todo[static_cast<size_t>(b)]));
+      };
+      parallel_for(static_cast<int>(todo.size()), threads, [&](int b) {
+        const int p = todo[static_cast<size_t>(b)];
+        unroll_plane(
+            g, p - w.read_begin, geo, planes, p, stem,
+            [&](int s) { return plane_ref(slices[slot(b, s)]); },
+            [&](int s) { return at[slot(b, s)] == s; });
       });
       if (visit)
-        for (int b = 0; b < m; ++b)
-          if (at[static_cast<size_t>(b)] > visited) {
-            visited = at[static_cast<size_t>(b)];
-            visit(visited, slices[static_cast<size_t>(b)]);
-          }
+        for (size_t b = 0; b < todo.size(); ++b)
+          for (int s = planes.first(todo[b]); s < planes.end(todo[b]); ++s)
+            if (at[slot(static_cast<int>(b), s)] == s && s > visited) {
+              visited = s;
+              visit(s, slices[slot(static_cast<int>(b), s)]);
+            }
     }
     if (wi + 1 < windows.size()) {
       carried_from = std::max(w.read_begin, windows[wi + 1].read_begin);
@@ -1403,9 +1501,9 @@ Result<std::vector<KnotTrace>> detect_knots(SliceSource& source, const Stem& ste
     std::vector<KnotTrace> traces = detect_in_grid(g, stem, options, threads, ws);
     g = Grid{};
     // This window's own: the traces whose innermost shell lies in its core.
-    const double z_lo = wi == 0 ? -HUGE_VAL : geo.z[static_cast<size_t>(w.core_begin)] - 0.5 * dz;
+    const double z_lo = wi == 0 ? -HUGE_VAL : plane_z(geo, planes, w.core_begin) - 0.5 * dz;
     const double z_hi =
-        wi + 1 == windows.size() ? HUGE_VAL : geo.z[static_cast<size_t>(w.core_end - 1)] + 0.5 * dz;
+        wi + 1 == windows.size() ? HUGE_VAL : plane_z(geo, planes, w.core_end - 1) + 0.5 * dz;
     for (KnotTrace& t : traces) {
       const double z = t.shells.front().z;
       if (z >= z_lo && z < z_hi) out.push_back(std::move(t));

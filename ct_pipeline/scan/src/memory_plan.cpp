@@ -2,6 +2,9 @@
 #include "sawyer/ct/scan/memory_plan.h"
 
 #include <sys/resource.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <algorithm>
 #include <cmath>
@@ -29,6 +32,12 @@ double peak_rss_mb() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return static_cast<double>(u.ru_maxrss) / 1024.0;  // Linux: kilobytes
+}
+
+void release_free_memory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
 }
 
 std::string MemoryPlan::parts() const {
@@ -72,7 +81,8 @@ Result<MemoryPlan> plan_memory(const VolumeGeometry& g, int threads, double budg
   const double r_max = 0.5 * std::min(g.width * g.spacing_x, g.height * g.spacing_y);
   KnotDetectOptions detect;
   auto window_mb = [&](const KnotWindowOptions& w) {
-    return static_cast<double>(knot_grid_bytes(knot_window_slices(g, w), r_max, detect)) / kMb;
+    return static_cast<double>(knot_grid_bytes(knot_window_planes(g, w, detect), r_max, detect)) /
+           kMb;
   };
   const double crops_cap_mb = static_cast<double>(ScanOptions{}.stem.crop_memory_bytes) / kMb;
   p.window = ScanOptions{}.knots.window;

@@ -6,6 +6,8 @@
 #include <string>
 #include <utility>
 
+#include "sawyer/ct/scan/memory_plan.h"
+
 namespace sawyer::ct {
 
 Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
@@ -25,6 +27,37 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
   });
   if (!stem) return stem.error();
   out.stem = std::move(stem.value());
+  // The slices the stem pass found the log's outline on (those it would have kept), and the
+  // QA's per-slice figures: what the rest needs of the records' radii, before they go.
+  std::vector<char> has_log(out.stem.slices.size(), 0);
+  for (size_t i = 0; i < out.stem.slices.size(); ++i) {
+    const StemSliceRecord& rec = out.stem.slices[i];
+    if (!rec.measured) continue;
+    for (size_t k = 0; k < rec.contour.radius.size(); ++k)
+      if (rec.contour.valid[k] && rec.contour.radius[k] > 0) {
+        has_log[i] = 1;
+        break;
+      }
+  }
+  std::vector<QaSlice> qa_slices = assess_slices(out.stem, src.geometry(), options.qa);
+  if (options.outline_slices >= 0) {
+    const int n = static_cast<int>(out.stem.slices.size());
+    std::vector<char> keep(out.stem.slices.size(), 0);
+    for (int i : qa_image_slices(n, options.outline_slices)) keep[static_cast<size_t>(i)] = 1;
+    for (size_t i = 0; i < out.stem.slices.size(); ++i)
+      if (!keep[i]) {
+        StemSliceRecord& rec = out.stem.slices[i];
+        ContourResult c;
+        c.bark_hu = rec.contour.bark_hu;
+        c.under_bark_hu = rec.contour.under_bark_hu;
+        c.bark_seen = rec.contour.bark_seen;
+        rec.contour = std::move(c);
+        HeartwoodResult h;
+        h.present = rec.heartwood.present;
+        rec.heartwood = std::move(h);
+      }
+    release_free_memory();  // the radii were allocated on the stem pass's workers
+  }
   const std::vector<double> view_radii = {30.0, 60.0, 90.0};
   if (options.find_knots) {
     if (progress) progress("knots", 0, 1);
@@ -37,17 +70,6 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
       for (double r : view_radii)
         out.unrolled.push_back(unroll_view(*out.volume, out.stem.stem, r));
     } else {
-      // The slices the stem pass found the log's outline on (those it would have kept).
-      std::vector<char> has_log(out.stem.slices.size(), 0);
-      for (size_t i = 0; i < out.stem.slices.size(); ++i) {
-        const StemSliceRecord& rec = out.stem.slices[i];
-        if (!rec.measured) continue;
-        for (size_t k = 0; k < rec.contour.radius.size(); ++k)
-          if (rec.contour.valid[k] && rec.contour.radius[k] > 0) {
-            has_log[i] = 1;
-            break;
-          }
-      }
       std::vector<UnrolledViewBuilder> views;
       for (double r : view_radii) views.emplace_back(src.geometry(), out.stem.stem, r);
       knots = scan_knots(src, out.stem.stem, &has_log, ko, [&](int i, const Slice& slice) {
@@ -63,8 +85,8 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
     for (double r : view_radii)
       out.unrolled.push_back(UnrolledViewBuilder(src.geometry(), out.stem.stem, r).take());
   }
-  out.qa =
-      assess_scan(out.stem, options.find_knots ? &out.knots : nullptr, src.geometry(), options.qa);
+  out.qa = assess_scan(out.stem, options.find_knots ? &out.knots : nullptr, src.geometry(),
+                       options.qa, std::move(qa_slices));
 
   LogModel& log = out.log;
   log.id = options.id;

@@ -97,42 +97,43 @@ std::string pct(double share) {
 
 }  // namespace
 
-ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const VolumeGeometry& g,
-                         const QaOptions& o) {
-  ScanQaDetail d;
-  const size_t n = scan.slices.size();
-  d.slices.resize(n);
+namespace {
+
+// The scan class (issue 20's targets): fine scans resolve rings where they are wide enough;
+// coarse industrial ones do not, and their pith comes from the log's shape.
+bool coarse_scan(const VolumeGeometry& g, const QaOptions& o) {
   const double dz =
       g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1) : 1.0;
+  return !(g.spacing_x <= o.fine_pixel_mm && g.spacing_y <= o.fine_pixel_mm &&
+           dz < o.coarse_slice_mm);
+}
 
-  // ---- per slice ----
-  // Scan class (issue 20's targets): fine scans resolve rings where they are wide enough; coarse
-  // industrial ones do not, and their pith comes from the log's shape.
-  d.coarse =
-      !(g.spacing_x <= o.fine_pixel_mm && g.spacing_y <= o.fine_pixel_mm && dz < o.coarse_slice_mm);
+}  // namespace
+
+std::vector<QaSlice> assess_slices(const StemScan& scan, const VolumeGeometry& g,
+                                   const QaOptions& o) {
+  const size_t n = scan.slices.size();
+  std::vector<QaSlice> out(n);
+  const double dz =
+      g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1) : 1.0;
+  const bool coarse = coarse_scan(g, o);
   const auto p95_limit = [&](bool resolved) {
-    return d.coarse ? o.pith_coarse_p95_mm : resolved ? o.pith_fine_p95_mm : o.pith_narrow_p95_mm;
+    return coarse ? o.pith_coarse_p95_mm : resolved ? o.pith_fine_p95_mm : o.pith_narrow_p95_mm;
   };
-  std::vector<double> shares;
-  int measured = 0, pith_suspects = 0, outline_suspects = 0, at_edge = 0;
-  int bark_seen = 0, weak_bark = 0;
-  std::vector<double> bark_steps, bark_shares;
   const StemSliceRecord* prev = nullptr;
   for (size_t i = 0; i < n; ++i) {
     const StemSliceRecord& r = scan.slices[i];
-    QaSlice& q = d.slices[i];
+    QaSlice& q = out[i];
     q.z = r.z;
     q.measured = r.measured;
     if (!r.measured) {
       prev = nullptr;
       continue;
     }
-    ++measured;
     // Pith.
     if (r.pith_refined.found) {
       q.ring_share = r.pith_refined.confidence;
       q.pith_residual_mm = (r.pith_refined.pith_mm - r.pith).norm();
-      shares.push_back(q.ring_share);
     }
     Vec2 centre;
     double mean_r = 0;
@@ -172,7 +173,6 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                    : r.pith_cue == PithCue::whorls ? "rings unresolved, pith from the knot whorls"
                                                    : "rings unresolved, pith from the log's shape";
     }
-    pith_suspects += q.pith_suspect;
     // Outline.
     const int na = static_cast<int>(r.contour.radius.size());
     int filled = 0;
@@ -200,27 +200,63 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
         edge += x < 1.5 * g.spacing_x || y < 1.5 * g.spacing_y || x > xmax || y > ymax;
       }
       q.at_edge_share = seen ? static_cast<double>(edge) / seen : 0.0;
-      if (q.at_edge_share > o.outline_max_at_edge) ++at_edge;
     }
     // The bark's step under the outer wood, in the wood's own spread (the levels this slice's
     // contour used: its own where they agree with the scan's).
     if (scan.levels.valid && r.contour.bark_seen) {
       const ScanLevels used = slice_levels_or_scan(r.levels, scan.levels);
-      ++bark_seen;
       const double step = used.wood_high_hu - r.contour.bark_hu;
       q.bark_step_sigmas = step / std::max(1.0, used.noise_hu());
       q.bark_step_share = step / std::max(1.0, used.wood_high_hu - used.air_hu);
-      bark_steps.push_back(q.bark_step_sigmas);
-      bark_shares.push_back(q.bark_step_share);
-      weak_bark += q.bark_step_sigmas < o.outline_min_bark_sigmas ||
-                   q.bark_step_share < o.outline_min_bark_share;
     }
     q.outline_suspect = q.at_edge_share > o.outline_max_at_edge ||
                         q.filled_share > o.outline_max_filled ||
                         q.roughness_mm > o.outline_max_roughness_mm ||
                         q.jump_mm_per_mm > o.outline_max_jump_mm_per_mm;
-    outline_suspects += q.outline_suspect;
     prev = &r;
+  }
+  return out;
+}
+
+ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const VolumeGeometry& g,
+                         const QaOptions& o) {
+  return assess_scan(scan, knots, g, o, assess_slices(scan, g, o));
+}
+
+ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const VolumeGeometry& g,
+                         const QaOptions& o, std::vector<QaSlice> slices) {
+  ScanQaDetail d;
+  const size_t n = scan.slices.size();
+  d.slices = std::move(slices);
+  d.slices.resize(n);
+  d.coarse = coarse_scan(g, o);
+  const auto p95_limit = [&](bool resolved) {
+    return d.coarse ? o.pith_coarse_p95_mm : resolved ? o.pith_fine_p95_mm : o.pith_narrow_p95_mm;
+  };
+  const double dz =
+      g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1) : 1.0;
+
+  // ---- per slice: the tallies ----
+  std::vector<double> shares;
+  int measured = 0, pith_suspects = 0, outline_suspects = 0, at_edge = 0;
+  int bark_seen = 0, weak_bark = 0;
+  std::vector<double> bark_steps, bark_shares;
+  for (size_t i = 0; i < n; ++i) {
+    const StemSliceRecord& r = scan.slices[i];
+    const QaSlice& q = d.slices[i];
+    if (!r.measured) continue;
+    ++measured;
+    if (r.pith_refined.found) shares.push_back(q.ring_share);
+    pith_suspects += q.pith_suspect;
+    if (g.width > 0 && g.height > 0 && q.at_edge_share > o.outline_max_at_edge) ++at_edge;
+    if (scan.levels.valid && r.contour.bark_seen) {
+      ++bark_seen;
+      bark_steps.push_back(q.bark_step_sigmas);
+      bark_shares.push_back(q.bark_step_share);
+      weak_bark += q.bark_step_sigmas < o.outline_min_bark_sigmas ||
+                   q.bark_step_share < o.outline_min_bark_share;
+    }
+    outline_suspects += q.outline_suspect;
   }
 
   ScanQa& v = d.verdict;

@@ -228,6 +228,13 @@ UnrolledView unroll_view(const LogVolume& vol, const Stem& stem, double r) {
   return b.take();
 }
 
+std::vector<int> qa_image_slices(int n, int slices) {
+  std::vector<int> out;
+  const int k = std::max(1, slices);
+  for (int q = 0; q < k && n > 0; ++q) out.push_back(static_cast<int>((q + 0.5) * n / k));
+  return out;
+}
+
 Status write_scan_qa_images(const ScanResult& scan, SliceSource& src, const fs::path& dir,
                             int slices) {
   const StemScan& s = scan.stem;
@@ -236,9 +243,7 @@ Status write_scan_qa_images(const ScanResult& scan, SliceSource& src, const fs::
   fs::create_directories(dir, ec);
   if (ec) return Error(dir.string(), "cannot create the QA folder: " + ec.message());
   Slice slice;
-  const int k = std::max(1, slices);
-  for (int q = 0; q < k && n > 0; ++q) {
-    const int i = static_cast<int>((q + 0.5) * n / k);
+  for (int i : qa_image_slices(n, slices)) {
     if (Status r = src.read(i, slice); !r) return r;
     char name[32];
     std::snprintf(name, sizeof name, "slice_%04d.png", i + 1);

@@ -57,10 +57,11 @@ struct RunObserver {
 };
 
 // Held by pointer: the sawing outcome refers to the scan's log model inside it. Once the scan
-// folder is written, the scan's per-slice arrays, its own stem copy, QA views and knot traces
-// are released (scan.scan keeps the records' piths and counts; the log model is whole), and
-// with a report the sawing outcome's SawLog tables too (SawLog::release_tables: its line, bow
-// and turn stay): the report would otherwise stack on them.
+// folder is written, what its files hold is released: the scan's per-slice records and QA
+// figures, its own stem copy, QA views and knot traces, and the log model's outline, heartwood
+// and bark arrays (its pith, knots and QA verdict stay; the folder's scan/log.json is the whole
+// model); with a report the sawing outcome's SawLog tables too (SawLog::release_tables: its
+// line, bow and turn stay). The report would otherwise stack on them.
 struct RunOutcome {
   ScanJob scan;
   sawing::SawSetup setup;

@@ -34,8 +34,14 @@
 namespace sawyer::ct {
 
 struct KnotDetectOptions {
-  double dr_mm = 1.0;          // radial step of the unrolled volume (shells at dr, 2·dr, ...)
-  int n_omega = 360;           // azimuth samples (1°: 1.7 mm of arc at r = 100 mm)
+  double dr_mm = 1.0;  // radial step of the unrolled volume (shells at dr, 2·dr, ...)
+  int n_omega = 360;   // azimuth samples (1°: 1.7 mm of arc at r = 100 mm)
+  // Planes of the unrolled volume along the log: slices closer than this (mm) are averaged in
+  // runs of floor(grid_dz_mm / spacing) consecutive slices into one plane (at their mean
+  // height), so that a fine scan's grid is that of a ~grid_dz_mm one (issue 24: memory and time
+  // of 1 mm and finer slices; a 10 mm knot still spans five planes). Slices this far apart or
+  // farther are one plane each. 0: one plane per slice.
+  double grid_dz_mm = 2.0;
   double min_diameter_mm = 4;  // smaller blobs are noise, not knots
   double min_r_mm = 5;         // segment from here outwards (the pith itself is not a knot)
   // Segmentation (contrast = HU minus the wood level of the same slice, wood class and ring):
@@ -160,11 +166,15 @@ struct KnotWindowOptions {
   double margin_mm = 170;  // a knot rises at most ~0.8 mm per mm of r over ~150 mm, ± its radius
 };
 
-// Bytes of the unrolled grid for `slices` slices of a stem whose largest outer radius is
-// `r_max_mm` (2 bytes a sample, plus the per-shell masks of the segmentation: ~1.3x).
-std::size_t knot_grid_bytes(int slices, double r_max_mm, const KnotDetectOptions& options);
-// Slices in the largest window the streamed pass reads for this geometry.
-int knot_window_slices(const VolumeGeometry& geometry, const KnotWindowOptions& window);
+// Bytes of the unrolled grid for `planes` planes (KnotDetectOptions::grid_dz_mm) of a stem
+// whose largest outer radius is `r_max_mm` (2 bytes a sample, plus the per-shell masks of the
+// segmentation: ~1.3x).
+std::size_t knot_grid_bytes(int planes, double r_max_mm, const KnotDetectOptions& options);
+// Slices of this geometry averaged into one plane of the unrolled grid (1: one plane a slice).
+int knot_plane_run(const VolumeGeometry& geometry, const KnotDetectOptions& options);
+// Planes in the largest window the streamed pass unrolls for this geometry.
+int knot_window_planes(const VolumeGeometry& geometry, const KnotWindowOptions& window,
+                       const KnotDetectOptions& options);
 
 // Called once per slice the streamed pass reads, in ascending index order, with the slice as
 // read: for what else wants the voxels on the way (the QA's unrolled views).

@@ -50,6 +50,12 @@ struct ScanOptions {
   // the knot pass on them in one grid (tools and tests that look at them). By default no voxels
   // are kept: the knot pass reads the scan again in windows (knot_detect.h).
   bool keep_volume = false;
+  // The slices whose records keep their outline and heartwood radii (StemSliceRecord::contour
+  // and heartwood, 5.8 KB a slice) once the QA's per-slice figures are taken from them: -1 every
+  // slice (benches and tools that compare them with a truth); k >= 0 only the k slices the QA
+  // images draw (qa_image_slices), so that the records of a scan of fine slices do not grow the
+  // knot pass's peak (issue 24; `sawyer scan` and `sawyer run`).
+  int outline_slices = -1;
   int threads = 0;  // 0: every core; overrides the passes' own
   // The model's id, species and the name its provenance gives the source ("" : "scan").
   std::string id, species = "unknown", source_name;
@@ -106,6 +112,9 @@ Result<ScanResult> scan_log(SliceSource& source, const ScanOptions& options,
 
 // The summary a terminal shows: slices, speed, stem, knots, and the QA headline.
 std::string scan_brief(const ScanResult& scan, const std::string& input);
+
+// The slices (indices, ascending) that write_scan_qa_images draws of a scan of n slices.
+std::vector<int> qa_image_slices(int n, int slices);
 
 // QA images into `dir` (created): `slices` slices with the pith, outline and heartwood border
 // drawn, pith_track.png (pith against z, suspect heights shaded), unrolled_r30/60/90.png (the

@@ -128,6 +128,15 @@ struct ScanQaDetail {
 // `knots` may be null (a stem-only scan). `geometry` is the scanned source's.
 ScanQaDetail assess_scan(const StemScan& stem, const KnotScan* knots,
                          const VolumeGeometry& geometry, const QaOptions& options = {});
+// The per-slice figures alone (ScanQaDetail::slices): the only part that reads the records'
+// outline and heartwood radii, so that a scan can take them before it releases those
+// (ScanOptions::outline_slices) ...
+std::vector<QaSlice> assess_slices(const StemScan& stem, const VolumeGeometry& geometry,
+                                   const QaOptions& options = {});
+// ... and the verdict from them later (the same as assess_scan on the whole records).
+ScanQaDetail assess_scan(const StemScan& stem, const KnotScan* knots,
+                         const VolumeGeometry& geometry, const QaOptions& options,
+                         std::vector<QaSlice> slices);
 
 // One line for a terminal: "QA: trusted" or "QA: NOT TRUSTED — <first warning> (+N more)".
 std::string qa_headline(const ScanQa& qa);
