@@ -68,37 +68,37 @@ SurfacePtr to_surface(const render::Image& img) {
 
 namespace {
 
-// The surface's pixels as packed 8-bit RGB, rows top to bottom.
-bool surface_rgb(cairo_surface_t* s, int* w, int* h, std::vector<unsigned char>* rgb) {
+// Encodes the surface's pixels as 8-bit RGB through OpenImageIO into memory, a row at a time
+// (no copy of the whole image: the detailed board strips, as long as the log at 8 px/cm, are the
+// report's largest images; issue 24). `name` picks the format by its extension; `attributes`
+// gives the format's settings.
+Result<std::string> encode(const char* what, const char* name, cairo_surface_t* s,
+                           const OIIO::ImageSpec& attributes) {
   cairo_surface_flush(s);
-  *w = cairo_image_surface_get_width(s);
-  *h = cairo_image_surface_get_height(s);
+  const int w = cairo_image_surface_get_width(s), h = cairo_image_surface_get_height(s);
   const int stride = cairo_image_surface_get_stride(s);
   const unsigned char* data = cairo_image_surface_get_data(s);
-  if (!data || *w <= 0 || *h <= 0) return false;
-  rgb->resize(3 * static_cast<size_t>(*w) * *h);
-  for (int y = 0; y < *h; ++y) {
-    const auto* px = reinterpret_cast<const std::uint32_t*>(data + static_cast<size_t>(y) * stride);
-    unsigned char* out = rgb->data() + 3 * static_cast<size_t>(*w) * y;
-    for (int x = 0; x < *w; ++x) {  // cairo: native-endian xRGB
-      out[3 * x] = static_cast<unsigned char>(px[x] >> 16);
-      out[3 * x + 1] = static_cast<unsigned char>(px[x] >> 8);
-      out[3 * x + 2] = static_cast<unsigned char>(px[x]);
-    }
-  }
-  return true;
-}
-
-// Encodes RGB through OpenImageIO into memory; `name` picks the format by its extension.
-Result<std::string> encode(const char* what, const char* name,
-                           const std::vector<unsigned char>& rgb, const OIIO::ImageSpec& spec) {
+  if (!data || w <= 0 || h <= 0) return Error(what, "not an image surface");
+  OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+  spec.extra_attribs = attributes.extra_attribs;
   std::vector<unsigned char> file;
   OIIO::Filesystem::IOVecOutput vec(file);
   auto out = OIIO::ImageOutput::create(name);
   if (!out) return Error(what, std::string("OpenImageIO has no ") + what + " writer");
-  if (!out->set_ioproxy(&vec) || !out->open(name, spec) ||
-      !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
+  if (!out->set_ioproxy(&vec) || !out->open(name, spec))
     return Error(what, "cannot encode: " + out->geterror());
+  std::vector<unsigned char> row(3 * static_cast<size_t>(w));
+  for (int y = 0; y < h; ++y) {
+    const auto* px = reinterpret_cast<const std::uint32_t*>(data + static_cast<size_t>(y) * stride);
+    for (int x = 0; x < w; ++x) {  // cairo: native-endian xRGB
+      row[3 * static_cast<size_t>(x)] = static_cast<unsigned char>(px[x] >> 16);
+      row[3 * static_cast<size_t>(x) + 1] = static_cast<unsigned char>(px[x] >> 8);
+      row[3 * static_cast<size_t>(x) + 2] = static_cast<unsigned char>(px[x]);
+    }
+    if (!out->write_scanline(y, 0, OIIO::TypeDesc::UINT8, row.data()))
+      return Error(what, "cannot encode: " + out->geterror());
+  }
+  if (!out->close()) return Error(what, "cannot encode: " + out->geterror());
   return std::string(file.begin(), file.end());
 }
 
@@ -107,24 +107,18 @@ Result<std::string> encode(const char* what, const char* name,
 // An 8-bit RGB PNG in memory through OpenImageIO, at zlib's fastest level: the PNGs are encoded
 // once for the files and reused in the HTML page, on the report's time budget.
 Result<std::string> encode_png(cairo_surface_t* s) {
-  int w = 0, h = 0;
-  std::vector<unsigned char> rgb;
-  if (!surface_rgb(s, &w, &h, &rgb)) return Error("PNG", "not an image surface");
-  OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+  OIIO::ImageSpec spec;
   spec.attribute("png:compressionLevel", 1);
-  return encode("PNG", "report.png", rgb, spec);
+  return encode("PNG", "report.png", s, spec);
 }
 
 // Baseline JPEG, 4:2:0 chroma: the board faces at full resolution for the HTML page.
 Result<std::string> encode_jpeg(cairo_surface_t* s, int quality) {
-  int w = 0, h = 0;
-  std::vector<unsigned char> rgb;
-  if (!surface_rgb(s, &w, &h, &rgb)) return Error("JPEG", "not an image surface");
-  OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+  OIIO::ImageSpec spec;
   quality = std::clamp(quality, 1, 100);
   spec.attribute("Compression", "jpeg:" + std::to_string(quality));
   spec.attribute("CompressionQuality", quality);
-  return encode("JPEG", "report.jpg", rgb, spec);
+  return encode("JPEG", "report.jpg", s, spec);
 }
 
 }  // namespace sawyer::report

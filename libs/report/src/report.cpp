@@ -226,6 +226,9 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
     d.detail_px_per_cm = faces.value().px_per_mm * 10.0;
     const SurfacePtr strip = compose_faces(faces.value(), d.detail_px_per_cm,
                                            d.detail_px_per_cm / 3.0, d.marks, false, &d.strip);
+    // The faces as rendered are in the figure and the strip now: freed before the JPEG is
+    // encoded (each as large as the board is long; issue 24).
+    std::vector<BoardFaces::Row>().swap(faces.value().rows);
     std::snprintf(buf, sizeof buf, "board_%02zu_faces.jpg", i + 1);
     d.strip_file = buf;
     // The PDF's crops: the knots with the largest excess over their limit, at most four, each
