@@ -152,12 +152,17 @@ struct Planes {
   int end(int p) const { return std::min(slices, (p + 1) * run); }
 };
 
+// At most this many slices to a plane: the streamed pass reads a plane's slices together, so
+// this bounds the slices in flight for very fine spacings (0.25 mm and finer: planes closer than
+// grid_dz_mm).
+constexpr int kMaxPlaneRun = 8;
+
 Planes planes_of(const VolumeGeometry& geo, const KnotDetectOptions& o) {
   Planes pl;
   pl.slices = geo.slice_count();
   const double dz = geo.slice_spacing();
   if (o.grid_dz_mm > 0 && dz > 0)
-    pl.run = std::max(1, static_cast<int>(std::floor(o.grid_dz_mm / dz + 1e-6)));
+    pl.run = std::clamp(static_cast<int>(std::floor(o.grid_dz_mm / dz + 1e-6)), 1, kMaxPlaneRun);
   return pl;
 }
 
@@ -278,7 +283,7 @@ void sample_slice(const Grid& g, int i, double z, const PlaneRef& pl, const Stem
   }
 }
 
-// Grid plane i (grid index; `first` its first slice's scan index) from its slices' pixels:
+// Grid plane i (grid index; `plane` its index in the scan's planes) from its slices' pixels:
 // slice(s) gives scan slice s's PlaneRef, and only the slices `use(s)` says are sampled. One
 // slice: its samples; several: their mean where any sampled it.
 template <class SliceAt, class Use>
@@ -293,7 +298,7 @@ void unroll_plane(Grid& g, int i, const VolumeGeometry& geo, const Planes& plane
   }
   const size_t n = static_cast<size_t>(g.nr) * g.nw;
   std::vector<float> sum(n, 0.f);
-  std::vector<std::uint8_t> count(n, 0);
+  std::vector<std::uint8_t> count(n, 0);  // at most kMaxPlaneRun
   for (int s = s0; s < s1; ++s) {
     if (!use(s)) continue;
     sample_slice(g, i, geo.z[static_cast<size_t>(s)], slice(s), stem, [&](int j, int k, float v) {

@@ -37,10 +37,10 @@ struct KnotDetectOptions {
   double dr_mm = 1.0;  // radial step of the unrolled volume (shells at dr, 2·dr, ...)
   int n_omega = 360;   // azimuth samples (1°: 1.7 mm of arc at r = 100 mm)
   // Planes of the unrolled volume along the log: slices closer than this (mm) are averaged in
-  // runs of floor(grid_dz_mm / spacing) consecutive slices into one plane (at their mean
-  // height), so that a fine scan's grid is that of a ~grid_dz_mm one (issue 24: memory and time
-  // of 1 mm and finer slices; a 10 mm knot still spans five planes). Slices this far apart or
-  // farther are one plane each. 0: one plane per slice.
+  // runs of floor(grid_dz_mm / spacing) consecutive slices (at most 8) into one plane (at their
+  // mean height), so that a fine scan's grid is that of a ~grid_dz_mm one (issue 24: memory and
+  // time of 1 mm and finer slices; a 10 mm knot still spans five planes). Slices this far apart
+  // or farther are one plane each. 0: one plane per slice.
   double grid_dz_mm = 2.0;
   double min_diameter_mm = 4;  // smaller blobs are noise, not knots
   double min_r_mm = 5;         // segment from here outwards (the pith itself is not a knot)
