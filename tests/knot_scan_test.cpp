@@ -151,6 +151,42 @@ TEST(KnotScan, ClearLogYieldsNoKnots) {
   EXPECT_EQ(kept.value().volume->bytes(), kept.value().voxel_bytes);
 }
 
+// The section scanned twice: its voxels kept (the knot pass in one grid), and read again in
+// windows of 150 mm of log (plus their margins).
+void scan_kept_and_streamed(SliceSource& src, ScanResult* kept, ScanResult* streamed) {
+  ScanOptions kept_o;
+  kept_o.keep_volume = true;
+  auto k = scan_log(src, kept_o);
+  ASSERT_TRUE(k.ok()) << k.error().message();
+  *kept = std::move(k).value();
+  ScanOptions streamed_o;
+  streamed_o.knots.window.core_mm = 150;
+  auto s = scan_log(src, streamed_o);
+  ASSERT_TRUE(s.ok()) << s.error().message();
+  *streamed = std::move(s).value();
+}
+
+// Knot by knot, where each is 40 mm out and where it ends (and its largest diameter with
+// `diameters`), and the first QA unrolled view, voxel for voxel.
+void expect_the_same_knots_and_view(const ScanResult& kept, const ScanResult& streamed,
+                                    bool diameters) {
+  const std::vector<Knot>& a = kept.knots.knots;
+  const std::vector<Knot>& b = streamed.knots.knots;
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(a[i].height_at(40), b[i].height_at(40), 0.5) << "knot " << a[i].id;
+    EXPECT_NEAR(angle_diff(a[i].azimuth_at(40), b[i].azimuth_at(40)), 0.0, 0.01)
+        << "knot " << a[i].id;
+    EXPECT_NEAR(a[i].r_end, b[i].r_end, 1.0) << "knot " << a[i].id;
+    if (diameters) EXPECT_NEAR(a[i].max_diameter(), b[i].max_diameter(), 0.5) << "knot " << a[i].id;
+  }
+  // The unrolled views inside the log: the same voxels, whether kept or read again.
+  const UnrolledView& va = kept.unrolled.front();
+  const UnrolledView& vb = streamed.unrolled.front();
+  ASSERT_EQ(va.grey.size(), vb.grey.size());
+  EXPECT_EQ(va.grey, vb.grey) << "r " << va.r_mm;
+}
+
 // The streamed knot pass (the scan read again in windows along the log) against the kept
 // volume's single grid, on 80 cm of the real spruce cut into windows of 15 cm (plus 17 cm
 // margins): two implementations of one pass, the same knots and the same QA views.
@@ -163,35 +199,16 @@ TEST(KnotScan, StreamedWindowsFindTheKnotsTheKeptVolumeFinds) {
   auto ph = Phantom::create(log, o);
   ASSERT_TRUE(ph.ok()) << ph.error().message();
   PhantomSource src(*ph.value(), true);
-  ScanOptions kept_o;
-  kept_o.keep_volume = true;
-  auto kept = scan_log(src, kept_o);
-  ASSERT_TRUE(kept.ok()) << kept.error().message();
-  ScanOptions streamed_o;
-  streamed_o.knots.window.core_mm = 150;
-  auto streamed = scan_log(src, streamed_o);
-  ASSERT_TRUE(streamed.ok()) << streamed.error().message();
-  EXPECT_EQ(kept.value().knots.detect.windows, 1);
-  EXPECT_GE(streamed.value().knots.detect.windows, 4);
-  EXPECT_EQ(streamed.value().volume, nullptr);
-  EXPECT_LT(streamed.value().voxel_bytes, kept.value().voxel_bytes / 2)
+  ScanResult kept, streamed;
+  scan_kept_and_streamed(src, &kept, &streamed);
+  if (HasFatalFailure()) return;
+  EXPECT_EQ(kept.knots.detect.windows, 1);
+  EXPECT_GE(streamed.knots.detect.windows, 4);
+  EXPECT_EQ(streamed.volume, nullptr);
+  EXPECT_LT(streamed.voxel_bytes, kept.voxel_bytes / 2)
       << "a window's grid is a fraction of the whole log's voxels";
-  const std::vector<Knot>& a = kept.value().knots.knots;
-  const std::vector<Knot>& b = streamed.value().knots.knots;
-  ASSERT_GE(a.size(), 10u) << "the section holds the real log's knots";
-  ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_NEAR(a[i].height_at(40), b[i].height_at(40), 0.5) << "knot " << a[i].id;
-    EXPECT_NEAR(angle_diff(a[i].azimuth_at(40), b[i].azimuth_at(40)), 0.0, 0.01)
-        << "knot " << a[i].id;
-    EXPECT_NEAR(a[i].r_end, b[i].r_end, 1.0) << "knot " << a[i].id;
-    EXPECT_NEAR(a[i].max_diameter(), b[i].max_diameter(), 0.5) << "knot " << a[i].id;
-  }
-  // The unrolled views inside the log: the same voxels, whether kept or read again.
-  const UnrolledView& va = kept.value().unrolled.front();
-  const UnrolledView& vb = streamed.value().unrolled.front();
-  ASSERT_EQ(va.grey.size(), vb.grey.size());
-  EXPECT_EQ(va.grey, vb.grey) << "r " << va.r_mm;
+  ASSERT_GE(kept.knots.knots.size(), 10u) << "the section holds the real log's knots";
+  expect_the_same_knots_and_view(kept, streamed, true);
 }
 
 // The same at slices 1 mm apart (and 1.6 mm pixels), averaged in pairs into the grid's planes
@@ -210,32 +227,16 @@ TEST(KnotScan, StreamedWindowsOfPairedFineSlicesFindTheKnotsTheKeptVolumeFinds) 
   ASSERT_TRUE(ph.ok()) << ph.error().message();
   PhantomSource src(*ph.value(), true);
   ASSERT_EQ(knot_plane_run(src.geometry(), {}), 2);
-  ScanOptions kept_o;
-  kept_o.keep_volume = true;
-  auto kept = scan_log(src, kept_o);
-  ASSERT_TRUE(kept.ok()) << kept.error().message();
-  ScanOptions streamed_o;
-  streamed_o.knots.window.core_mm = 150;
-  auto streamed = scan_log(src, streamed_o);
-  ASSERT_TRUE(streamed.ok()) << streamed.error().message();
-  EXPECT_EQ(kept.value().knots.detect.windows, 1);
-  EXPECT_GE(streamed.value().knots.detect.windows, 3);
+  ScanResult kept, streamed;
+  scan_kept_and_streamed(src, &kept, &streamed);
+  if (HasFatalFailure()) return;
+  EXPECT_EQ(kept.knots.detect.windows, 1);
+  EXPECT_GE(streamed.knots.detect.windows, 3);
   const int planes = (src.geometry().slice_count() + 1) / 2;  // slices in pairs
-  EXPECT_EQ(kept.value().knots.detect.slices, planes);
-  EXPECT_EQ(streamed.value().knots.detect.slices, planes);
-  const std::vector<Knot>& a = kept.value().knots.knots;
-  const std::vector<Knot>& b = streamed.value().knots.knots;
-  ASSERT_GE(a.size(), 4u);
-  ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_NEAR(a[i].height_at(40), b[i].height_at(40), 0.5) << "knot " << a[i].id;
-    EXPECT_NEAR(angle_diff(a[i].azimuth_at(40), b[i].azimuth_at(40)), 0.0, 0.01)
-        << "knot " << a[i].id;
-    EXPECT_NEAR(a[i].r_end, b[i].r_end, 1.0) << "knot " << a[i].id;
-  }
-  const UnrolledView& va = kept.value().unrolled.front();
-  const UnrolledView& vb = streamed.value().unrolled.front();
-  EXPECT_EQ(va.grey, vb.grey) << "r " << va.r_mm;
+  EXPECT_EQ(kept.knots.detect.slices, planes);
+  EXPECT_EQ(streamed.knots.detect.slices, planes);
+  ASSERT_GE(kept.knots.knots.size(), 4u);
+  expect_the_same_knots_and_view(kept, streamed, false);
 }
 
 }  // namespace

@@ -6,7 +6,7 @@
 #include <string>
 #include <utility>
 
-#include "sawyer/ct/scan/memory_plan.h"
+#include "sawyer/core/process_memory.h"
 
 namespace sawyer::ct {
 
@@ -45,16 +45,12 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
     std::vector<char> keep(out.stem.slices.size(), 0);
     for (int i : qa_image_slices(n, options.outline_slices)) keep[static_cast<size_t>(i)] = 1;
     for (size_t i = 0; i < out.stem.slices.size(); ++i)
-      if (!keep[i]) {
+      if (!keep[i]) {  // the arrays go; the levels and flags stay
         StemSliceRecord& rec = out.stem.slices[i];
-        ContourResult c;
-        c.bark_hu = rec.contour.bark_hu;
-        c.under_bark_hu = rec.contour.under_bark_hu;
-        c.bark_seen = rec.contour.bark_seen;
-        rec.contour = std::move(c);
-        HeartwoodResult h;
-        h.present = rec.heartwood.present;
-        rec.heartwood = std::move(h);
+        std::vector<double>().swap(rec.contour.radius);
+        std::vector<bool>().swap(rec.contour.valid);
+        std::vector<double>().swap(rec.heartwood.radius);
+        std::vector<bool>().swap(rec.heartwood.valid);
       }
     release_free_memory();  // the radii were allocated on the stem pass's workers
   }

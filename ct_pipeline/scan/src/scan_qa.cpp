@@ -99,13 +99,22 @@ std::string pct(double share) {
 
 namespace {
 
+// The slices' mean step along z (mm; 1 for a single slice).
+double mean_step(const VolumeGeometry& g) {
+  return g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1) : 1.0;
+}
+
 // The scan class (issue 20's targets): fine scans resolve rings where they are wide enough;
 // coarse industrial ones do not, and their pith comes from the log's shape.
 bool coarse_scan(const VolumeGeometry& g, const QaOptions& o) {
-  const double dz =
-      g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1) : 1.0;
   return !(g.spacing_x <= o.fine_pixel_mm && g.spacing_y <= o.fine_pixel_mm &&
-           dz < o.coarse_slice_mm);
+           mean_step(g) < o.coarse_slice_mm);
+}
+
+// The 95th percentile the pith's expected error is held to: by scan class, and for fine scans
+// by whether the rings were resolved.
+double pith_p95_limit(bool coarse, bool resolved, const QaOptions& o) {
+  return coarse ? o.pith_coarse_p95_mm : resolved ? o.pith_fine_p95_mm : o.pith_narrow_p95_mm;
 }
 
 }  // namespace
@@ -114,12 +123,8 @@ std::vector<QaSlice> assess_slices(const StemScan& scan, const VolumeGeometry& g
                                    const QaOptions& o) {
   const size_t n = scan.slices.size();
   std::vector<QaSlice> out(n);
-  const double dz =
-      g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1) : 1.0;
+  const double dz = mean_step(g);
   const bool coarse = coarse_scan(g, o);
-  const auto p95_limit = [&](bool resolved) {
-    return coarse ? o.pith_coarse_p95_mm : resolved ? o.pith_fine_p95_mm : o.pith_narrow_p95_mm;
-  };
   const StemSliceRecord* prev = nullptr;
   for (size_t i = 0; i < n; ++i) {
     const StemSliceRecord& r = scan.slices[i];
@@ -167,7 +172,7 @@ std::vector<QaSlice> assess_slices(const StemScan& scan, const VolumeGeometry& g
       // pattern that is not the pith's.
       q.pith_suspect = true;
       q.pith_why = "rings and knot whorls disagree";
-    } else if (q.expected_error_mm > p95_limit(r.rings_resolved)) {
+    } else if (q.expected_error_mm > pith_p95_limit(coarse, r.rings_resolved, o)) {
       q.pith_suspect = true;
       q.pith_why = r.rings_resolved                ? "rings faint"
                    : r.pith_cue == PithCue::whorls ? "rings unresolved, pith from the knot whorls"
@@ -230,11 +235,7 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
   d.slices = std::move(slices);
   d.slices.resize(n);
   d.coarse = coarse_scan(g, o);
-  const auto p95_limit = [&](bool resolved) {
-    return d.coarse ? o.pith_coarse_p95_mm : resolved ? o.pith_fine_p95_mm : o.pith_narrow_p95_mm;
-  };
-  const double dz =
-      g.slice_count() > 1 ? std::abs(g.z.back() - g.z.front()) / (g.slice_count() - 1) : 1.0;
+  const double dz = mean_step(g);
 
   // ---- per slice: the tallies ----
   std::vector<double> shares;
@@ -326,7 +327,7 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
     d.pith_limit_median_mm = d.coarse          ? o.pith_coarse_median_mm
                              : mostly_resolved ? o.pith_fine_median_mm
                                                : o.pith_narrow_median_mm;
-    d.pith_limit_p95_mm = p95_limit(mostly_resolved);
+    d.pith_limit_p95_mm = pith_p95_limit(d.coarse, mostly_resolved, o);
     const auto runs = runs_of(d.slices, [](const QaSlice& q) { return q.pith_suspect; });
     for (const Run& r : runs)
       d.pith_longest_run_mm = std::max(d.pith_longest_run_mm, r.z1 - r.z0 + dz);

@@ -5,13 +5,11 @@
 #include <chrono>
 #include <fstream>
 #include <optional>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 
 #include "documents.h"
 #include "figures.h"
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/process_memory.h"
 #include "sawyer/render/gl_context.h"
 #include "sawyer/sawing/grading.h"
 #include "sawyer/sawing/setup.h"
@@ -28,14 +26,6 @@ Status write_bytes(const fs::path& path, const std::string& bytes) {
   f.close();
   if (!f) return Error(path.string(), "cannot write");
   return Status::Ok();
-}
-
-// Gives the pages of freed memory back to the system (glibc keeps them in its heap otherwise,
-// where the freed GL objects and models sat between later allocations).
-void release_free_memory() {
-#if defined(__GLIBC__)
-  malloc_trim(0);
-#endif
 }
 
 // Times the steps and reports progress.

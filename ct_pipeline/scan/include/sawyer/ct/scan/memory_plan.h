@@ -60,8 +60,4 @@ Result<MemoryPlan> plan_memory(const VolumeGeometry& geometry, int threads, doub
 // The process's peak resident memory so far, MB (getrusage).
 double peak_rss_mb();
 
-// Gives the heap's free pages back to the system (glibc's malloc_trim): after a stage freed
-// what the workers' own heaps held, which the next stage's allocations would not reuse.
-void release_free_memory();
-
 }  // namespace sawyer::ct
