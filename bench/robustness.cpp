@@ -3,15 +3,17 @@
 //
 //   robustness [--quick] [--conditions N] [--slices S] [--seed S] [--preset P] [--logs L]
 //              [--only I[,J...]] [--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1]
-//              [--qa-csv FILE]
+//              [--qa-csv FILE] [--eccentric 0|1]
 //
 // Draws N conditions (seeded; condition i from its own stream, so `--only i` reproduces it),
 // each a log (the bundled gran1_spruce, pine_8, spruce_77 or a fresh sawyer::generate_log one),
 // a preset (pine, spruce, douglas: a Douglas-fir-like log with strong latewood) and every
-// condition of PhantomOptions from its realistic range. Each is rendered as a short section of S
-// slices in memory, scanned as `sawyer scan` does (ct::scan_log: the stem pass keeping the voxels,
-// then scan_knots) and measured against the phantom's truth. It prints every scan's figures, the
-// pass rate of each stage against issue 20's targets, each failing condition with its
+// condition of PhantomOptions from its realistic range, and a generated log's pith eccentricity
+// (0–25 % of the radius, changing along the log; the bundled logs keep their measured piths;
+// --eccentric 0: the generator's own 1–5 %, as before issue 41). Each is rendered as a short
+// section of S slices in memory, scanned as `sawyer scan` does (ct::scan_log: the stem pass keeping
+// the voxels, then scan_knots) and measured against the phantom's truth. It prints every scan's
+// figures, the pass rate of each stage against issue 20's targets, each failing condition with its
 // parameters, and the pass rate of each stage per bin of each drawn factor.
 // --true-stem 1 runs the knot pass on the phantom's true stem (pith, outline, heartwood) instead
 // of the scanned one, so that the knot figures measure the knot pass alone (the stem figures
@@ -63,6 +65,10 @@ struct Condition {
   std::uint64_t log_seed = 0;
   double at = 0.5;        // section centre, fraction of the log's length
   bool windowed = false;  // 8-bit windowed export, emulated in memory (MemorySource)
+  // A generated log's pith eccentricity, share of the radius (issue 41: real piths sit 0–25 %
+  // off the outline's centre). Drawn for every condition, used for generated logs only.
+  double eccentricity = 0;
+  bool eccentric_asked = false;  // it was (a generated log, --eccentric 1)
   PhantomOptions o;
 };
 
@@ -143,7 +149,18 @@ Condition draw(int id, std::uint64_t seed, const std::string& preset, const std:
     o.window_centre_hu = -400;
     o.window_width_hu = r.uniform(1000, 1600);
   }
+  // Drawn last, so that every other factor of a condition is what it was before it existed.
+  c.eccentricity = r.uniform(0, 0.25);
   return c;
+}
+
+// The generator's eccentricity for a condition's drawn level: within ±2.5 % of it (inside
+// 0–25 %), changing by up to 5 % of the radius along the log, direction turning by ±0.5 rad.
+void ask_eccentricity(const Condition& c, GeneratorOptions& g) {
+  g.eccentricity_min = std::max(0.0, c.eccentricity - 0.025);
+  g.eccentricity_max = std::min(0.25, c.eccentricity + 0.025);
+  g.eccentricity_change = 0.05;
+  g.eccentricity_turn_rad = 0.5;
 }
 
 // ---- Rendering ----------------------------------------------------------------------------
@@ -160,6 +177,7 @@ struct Figures {
   std::string error;      // the condition could not be rendered or scanned
   bool excluded = false;  // the phantom refused it: not the pipeline's failure, not counted
   int slices = 0, image = 0;
+  double eccentricity = NAN;   // the section's true pith eccentricity (section_eccentricity)
   bool fine = true;            // pixels <= 1 mm and slices < 10 mm (else a coarse scan)
   bool rings_resolved = true;  // rings within 20 mm of the pith >= 2 pixels wide
   double min_ring_px = 0;
@@ -220,6 +238,26 @@ double section_reach_mm(const LogModel& log, double from, double to, const Place
          0.5 * (to - from) * std::sin(tilt * kPi / 180);
 }
 
+// The pith's distance from the outline's centroid as a share of the equal-area radius, the
+// mean over the section's extent in the log model (the truth, whatever the log's source).
+double section_eccentricity(const LogModel& log, double from, double to) {
+  constexpr int kHeights = 9, kAngles = 360;
+  double sum = 0;
+  for (int j = 0; j < kHeights; ++j) {
+    const double z = from + (to - from) * j / (kHeights - 1);
+    double r2 = 0, cx = 0, cy = 0;  // Σ r², Σ r³ cos ω, Σ r³ sin ω around the pith
+    for (int k = 0; k < kAngles; ++k) {
+      const double w = kTwoPi * k / kAngles, r = log.stem.radius_at(w, z);
+      r2 += r * r;
+      cx += r * r * r * std::cos(w);
+      cy += r * r * r * std::sin(w);
+    }
+    // Centroid of the polar area: ∫ r³/3 (cos, sin) dω / ∫ r²/2 dω.
+    sum += 2.0 / 3.0 * std::hypot(cx, cy) / r2 / std::sqrt(r2 / kAngles);
+  }
+  return sum / kHeights;
+}
+
 Figures measure(const Condition& c, const LogModel& log, int n, int threads, bool true_stem) {
   Figures f;
   PhantomOptions o = c.o;
@@ -231,6 +269,7 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
                                  std::max(lo, hi));
   o.from_mm = from;
   o.to_mm = from + len;
+  f.eccentricity = section_eccentricity(log, from, from + len);
   if (o.drop_slices > 0) o.drop_slices = std::max(1, n / 20);
   o.threads = threads;
   // The image: the log with its bark and 40 mm to spare, never under 256 pixels; grown when the
@@ -481,14 +520,14 @@ std::string fmt(const char* f, double x) {
 
 std::string params(const Condition& c, const LogModel& log, const Figures& f) {
   const PhantomOptions& o = c.o;
-  char b[640];
+  char b[768];
   std::snprintf(
       b, sizeof b,
       "%s %s at %.0f %%, %d px x %.2f mm, slices %.1f mm, noise %.0f HU, blur %.2f px, rings "
       "%.2f mm (juvenile %s), contrast %.0f HU, latewood %.2f, %s, offset %+.0f HU, slope %.2f, "
       "cupping %.0f HU, drift %+.0f HU/m%s%s, cracks %d, rot %d, resin pockets %d, wet pockets "
       "%d, compression %.2f, bark missing %d loose %d, clutter %s, second log %s, tilt %.1f deg, "
-      "offset (%.0f, %.0f) mm, dropped %s, seed %llu",
+      "offset (%.0f, %.0f) mm, dropped %s, pith eccentricity %s %% (%s), seed %llu",
       preset_name(c.preset), log.id.c_str(), 100 * c.at, f.image, o.pixel_mm, o.slice_spacing_mm,
       o.noise_hu, o.blur_px, o.ring_width_mm,
       o.juvenile_ring_width_mm > 0 ? (fmt("%.1f", o.juvenile_ring_width_mm) + " mm to " +
@@ -502,6 +541,10 @@ std::string params(const Condition& c, const LogModel& log, const Figures& f) {
       o.cracks, o.rot_pockets, o.resin_pockets, o.wet_pockets, o.compression_wood, o.bark_missing,
       o.bark_loose, o.clutter ? "yes" : "no", o.second_log ? "yes" : "no", o.placement.tilt_x_deg,
       o.placement.offset_x_mm, o.placement.offset_y_mm, o.drop_slices ? "yes" : "no",
+      fmt("%.1f", 100 * f.eccentricity).c_str(),
+      c.log != "random"   ? "the log's own"
+      : c.eccentric_asked ? ("drawn " + fmt("%.1f", 100 * c.eccentricity) + " %").c_str()
+                          : "the generator's 1-5 %",
       static_cast<unsigned long long>(o.seed));
   return b;
 }
@@ -620,6 +663,12 @@ const std::vector<Factor>& factors() {
       {"dropped slices",
        {"none", "5 %"},
        [](const Condition& c, const Figures&) { return c.o.drop_slices > 0 ? 1 : 0; }},
+      // The section's true eccentricity, whatever the log (bundled logs: their measured pith).
+      {"pith eccentricity",
+       {"< 5 %", "5-12 %", ">= 12 %"},
+       [](const Condition&, const Figures& f) {
+         return !(f.eccentricity >= 0.05) ? 0 : f.eccentricity < 0.12 ? 1 : 2;
+       }},
   };
   return s;
 }
@@ -633,9 +682,9 @@ struct Done {
 void print_scans(const std::vector<Done>& done) {
   std::printf(
       "\n## Scans\n\n| # | preset | log | class | px mm | dz mm | noise | rings mm | "
-      "contrast | moisture | pith med | pith p95 | outer RMS | heart RMS | recall | "
+      "contrast | moisture | ecc % | pith med | pith p95 | outer RMS | heart RMS | recall | "
       "precision | found/true | diam RMSE | r_dead | r_end | flagged | s |\n"
-      "|---:|---|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"
+      "|---:|---|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|"
       "---:|---:|---:|---:|---|---:|\n");
   for (const Done& d : done) {
     const Figures& f = d.f;
@@ -646,16 +695,16 @@ void print_scans(const std::vector<Done>& done) {
       continue;
     }
     std::printf(
-        "| %d | %s | %s | %s | %.2f | %.1f | %.0f | %.2f | %.0f | %s | %s | %s | %s | %s "
+        "| %d | %s | %s | %s | %.2f | %.1f | %.0f | %.2f | %.0f | %s | %s | %s | %s | %s | %s "
         "| %s | %s | %d/%d | %s | %s | %s | %s | %.1f |\n",
         d.c.id, preset_name(d.c.preset), d.log_id.c_str(),
         f.fine ? (f.rings_resolved ? "fine" : "fine, narrow") : "coarse", o.pixel_mm,
         o.slice_spacing_mm, o.noise_hu, o.ring_width_mm, o.ring_contrast_hu,
-        moisture_name(o.moisture), fmt("%.2f", f.pith_median).c_str(),
-        fmt("%.2f", f.pith_p95).c_str(), fmt("%.2f", f.outer_rms).c_str(),
-        fmt("%.2f", f.heart_rms).c_str(), fmt("%.0f %%", 100 * f.recall).c_str(),
-        fmt("%.0f %%", 100 * f.precision).c_str(), f.found, f.truth_all,
-        fmt("%.2f", f.diam_rmse).c_str(), fmt("%.1f", f.r_dead).c_str(),
+        moisture_name(o.moisture), fmt("%.1f", 100 * f.eccentricity).c_str(),
+        fmt("%.2f", f.pith_median).c_str(), fmt("%.2f", f.pith_p95).c_str(),
+        fmt("%.2f", f.outer_rms).c_str(), fmt("%.2f", f.heart_rms).c_str(),
+        fmt("%.0f %%", 100 * f.recall).c_str(), fmt("%.0f %%", 100 * f.precision).c_str(), f.found,
+        f.truth_all, fmt("%.2f", f.diam_rmse).c_str(), fmt("%.1f", f.r_dead).c_str(),
         fmt("%.1f", f.r_end).c_str(), f.flagged ? (*f.flagged ? "yes" : "no") : "n/a",
         f.seconds_render + f.seconds_scan);
   }
@@ -821,7 +870,8 @@ int usage() {
   std::fprintf(stderr,
                "usage: robustness [--quick] [--conditions N] [--slices S] [--seed S] "
                "[--preset pine|spruce|douglas|mixed] [--logs bundled|random|all] [--only I[,J...]] "
-               "[--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1] [--qa-csv FILE]\n");
+               "[--threads T] [--list 0|1] [--baseline 0|1] [--true-stem 0|1] [--qa-csv FILE] "
+               "[--eccentric 0|1]\n");
   return 2;
 }
 
@@ -831,6 +881,7 @@ int main(int argc, char** argv) {
   int n_conditions = 200, slices = 40, threads = 2;
   std::vector<int> only;  // --only I[,J...]: these conditions alone
   bool list = true, baseline = false, true_stem = false;
+  bool eccentric = true;  // generated logs' piths 0-25 % off centre (issue 41); 0: 1-5 %
   std::uint64_t seed = 19;
   std::string preset = "mixed", logs_from = "all", qa_csv;
   for (int a = 1; a < argc; ++a) {
@@ -870,6 +921,8 @@ int main(int argc, char** argv) {
       qa_csv = val;
     else if (k == "--true-stem")
       true_stem = std::atoi(val) != 0;
+    else if (k == "--eccentric")
+      eccentric = std::atoi(val) != 0;
     else
       return usage();
   }
@@ -888,10 +941,11 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "# Robustness sweep: %d conditions, seed %llu, preset %s, logs %s, %d slices each, "
-      "%d threads%s%s\n",
+      "%d threads%s%s; generated logs' pith eccentricity %s\n",
       n_conditions, static_cast<unsigned long long>(seed), preset.c_str(), logs_from.c_str(),
       slices, threads, baseline ? "; baseline: each log and section under the default phantom" : "",
-      true_stem ? "; knot pass on the true stem" : "");
+      true_stem ? "; knot pass on the true stem" : "",
+      eccentric ? "0-25 % (drawn)" : "the generator's own 1-5 % (--eccentric 0)");
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Done> done;
   std::vector<LogModel> logs_of;
@@ -909,6 +963,10 @@ int main(int argc, char** argv) {
       GeneratorOptions g;
       g.species = c.preset == Preset::kSpruce ? Species::kSpruce : Species::kPine;
       g.seed = c.log_seed;
+      if (eccentric) {
+        ask_eccentricity(c, g);
+        c.eccentric_asked = true;
+      }
       auto r = generate_log(g);
       if (!r) {
         std::fprintf(stderr, "robustness: condition %d: %s\n", i, r.error().message().c_str());

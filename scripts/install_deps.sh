@@ -4,6 +4,8 @@
 # everything is installed. Needs root (or sudo) only when something is missing.
 set -euo pipefail
 
+# python3-scipy, -pil and -pydicom: bench/real_slices.py and the RealSlices test (the real-CT
+# check's case maker and scorer, in ../shared/realdata when it is there).
 PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev
@@ -11,7 +13,7 @@ PACKAGES=(
   libglfw3-dev libceres-dev libgdcm-dev libgdcm-tools libsqlite3-dev libxxhash-dev libcairo2-dev libimgui-dev
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   xvfb xauth poppler-utils chromium fonts-dejavu-core sqlite3 clang-format git
-  blender python3-numpy
+  blender python3-numpy python3-scipy python3-pil python3-pydicom
 )
 
 missing=()

@@ -462,3 +462,35 @@ TEST_F(BatchEndToEnd, TwoShardsCoverEveryRowOnce) {
   ASSERT_TRUE(reg.ok()) << reg.error().message();
   EXPECT_EQ(reg.value().count().value(), 2);
 }
+
+// A log whose pattern does not fit it (a pattern far wider than the 250 mm log) is its own
+// category: `sawyer run` writes its scan and report and exits 4, the batch lists it "not_sawn"
+// with why, counts it apart from ok and failed, leaves its folder, and is not partial (exit 0).
+TEST_F(BatchEndToEnd, ALogThePatternDoesNotFitIsCountedNotSawn) {
+  test::write_file(path("huge.json"), R"({"format": "sawyer-pattern/1", "name": "huge",
+    "boards": [
+      {"name": "1", "u_mm": -101.5, "v_mm": 0, "thickness_mm": 200, "width_mm": 400},
+      {"name": "2", "u_mm": 101.5, "v_mm": 0, "thickness_mm": 200, "width_mm": 400}]})");
+  test::write_file(path("manifest_huge.csv"),
+                   "ct,id,species,pattern\n"
+                   "scans/log_s1,BIG,spruce,huge.json\n");
+  const fs::path out = path("out_huge"), db = path("huge.sqlite");
+  std::string output;
+  const int rc =
+      test::run_sawyer("batch " + test::quoted(path("manifest_huge.csv")) + " -o " +
+                           test::quoted(out) + " --db " + test::quoted(db) + " -- --threads 1",
+                       &output);
+  EXPECT_EQ(rc, 0) << output;
+  std::map<std::string, std::string> st;
+  read_statuses(out, &st);
+  EXPECT_EQ(st, (std::map<std::string, std::string>{{"BIG", "not_sawn"}})) << output;
+  const std::string csv = read(out / "batch_0.csv");
+  EXPECT_NE(csv.find(",not_sawn,4,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("does not fit"), std::string::npos) << csv;
+  EXPECT_NE(output.find("BIG NOT SAWN"), std::string::npos) << output;
+  EXPECT_NE(output.find("0 ok (0 with QA warnings), 1 not sawn, 0 failed of 1"), std::string::npos)
+      << output;
+  EXPECT_TRUE(fs::exists(out / "BIG" / "scan" / "log.json"));
+  EXPECT_TRUE(fs::exists(out / "BIG" / "report" / "report.pdf"));
+  EXPECT_FALSE(fs::exists(out / "BIG" / "sawing.json"));
+}

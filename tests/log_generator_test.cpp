@@ -163,6 +163,28 @@ TEST(GeneratorOptions, BadOptionsAreRejectedNamingTheOption) {
       {[](GeneratorOptions& o) { o.top_diameter_mm = -1; }, "top_diameter_mm"},
       {[](GeneratorOptions& o) { o.species = static_cast<Species>(7); }, "species"},
       {[](GeneratorOptions& o) { o.position = static_cast<LogPosition>(9); }, "position"},
+      {[](GeneratorOptions& o) { o.eccentricity_max = 0.5; }, "eccentricity_max"},
+      {[](GeneratorOptions& o) { o.eccentricity_max = std::nan(""); }, "eccentricity_max"},
+      {[](GeneratorOptions& o) {
+         o.eccentricity_min = 0.2;
+         o.eccentricity_max = 0.1;
+       },
+       "eccentricity_min"},
+      {[](GeneratorOptions& o) {
+         o.eccentricity_min = -0.1;
+         o.eccentricity_max = 0.1;
+       },
+       "eccentricity_min"},
+      {[](GeneratorOptions& o) {
+         o.eccentricity_max = 0.2;
+         o.eccentricity_change = -0.01;
+       },
+       "eccentricity_change"},
+      {[](GeneratorOptions& o) {
+         o.eccentricity_max = 0.2;
+         o.eccentricity_turn_rad = 4;
+       },
+       "eccentricity_turn_rad"},
   };
   for (const Case& c : cases) {
     GeneratorOptions o;
@@ -625,6 +647,103 @@ TEST(LogGenerator, OptionsShapeTheLog) {
   EXPECT_LE(s.butt_diameter_mm, 450.0);
 }
 
+// ---- Pith eccentricity (issue 41) ---------------------------------------------------------------
+
+// The pith's offset from its outline's centroid, a share of the equal-area radius.
+double eccentricity(const Stem& s, int i) {
+  return outline_centroid(s, i).norm() / std::sqrt(s.area(i) / kPi);
+}
+
+LogModel eccentric(Species sp, std::uint64_t seed, double lo, double hi, double change = 0.05) {
+  return make(sp, seed, [&](GeneratorOptions& o) {
+    o.eccentricity_min = lo;
+    o.eccentricity_max = hi;
+    o.eccentricity_change = change;
+  });
+}
+
+// Real piths sit 0–25 % of the radius off the outline's centre: asked for, the generated pith
+// spans the asked stretch along the log, smoothly, inside the same outline.
+TEST(LogGenerator, AskedEccentricityIsReachedAndChangesAlongTheLog) {
+  struct Ask {
+    double lo, hi;
+  };
+  for (Species sp : kSpecies)
+    for (int seed = 1; seed <= 3; ++seed)
+      for (const Ask a : {Ask{0.20, 0.25}, Ask{0.0, 0.25}, Ask{0.12, 0.12}}) {
+        const LogModel log = eccentric(sp, seed, a.lo, a.hi);
+        SCOPED_TRACE(log.id + " asked " + std::to_string(a.lo) + ".." + std::to_string(a.hi));
+        ASSERT_TRUE(validate(log));
+        EXPECT_THAT(log.source, HasSubstr("--eccentricity "));
+        const Stem& s = log.stem;
+        double e_min = 1, e_max = 0;
+        for (int i = 0; i < s.slice_count(); ++i) {
+          e_min = std::min(e_min, eccentricity(s, i));
+          e_max = std::max(e_max, eccentricity(s, i));
+        }
+        // Inside the asked range, and changing by the asked 5 % of the radius along the log
+        // (the whole range when it is narrower). The slack is the lobes' own centroid shift.
+        EXPECT_GE(e_min, a.lo - 0.004);
+        EXPECT_LE(e_max, a.hi + 0.004);
+        EXPECT_NEAR(e_max - e_min, std::min(0.05, a.hi - a.lo), 0.006);
+        // Smooth along z, as the default pith is.
+        for (int i = 1; i + 1 < s.slice_count(); ++i) {
+          const Vec2 d1 = s.pith[i] - s.pith[i - 1];
+          const Vec2 d2 = s.pith[i + 1] - 2.0 * s.pith[i] + s.pith[i - 1];
+          ASSERT_LE(d1.norm(), 1.5) << "slice " << i;
+          ASSERT_LE(d2.norm(), 0.15) << "slice " << i;
+        }
+      }
+  // A stretch at the top of the range reaches it: 20 and 25 % both occur along the log.
+  const LogModel top = eccentric(Species::kPine, 4, 0.20, 0.25);
+  double e_min = 1, e_max = 0;
+  for (int i = 0; i < top.stem.slice_count(); ++i) {
+    e_min = std::min(e_min, eccentricity(top.stem, i));
+    e_max = std::max(e_max, eccentricity(top.stem, i));
+  }
+  EXPECT_LE(e_min, 0.205);
+  EXPECT_GE(e_max, 0.245);
+}
+
+// The pith moves inside the outline the default log has: the same section (area, centroid in
+// the scanner frame), the near side's radii shorter and the far side's longer.
+TEST(LogGenerator, AskedEccentricityMovesOnlyThePith) {
+  for (Species sp : kSpecies) {
+    const LogModel base = make(sp, 5);
+    const LogModel ecc = eccentric(sp, 5, 0.25, 0.25);
+    ASSERT_EQ(ecc.stem.slice_count(), base.stem.slice_count());
+    for (int i = 0; i < base.stem.slice_count(); i += 25) {
+      SCOPED_TRACE(name(sp) + std::string(" slice ") + std::to_string(i));
+      EXPECT_NEAR(ecc.stem.area(i), base.stem.area(i), 5e-4 * base.stem.area(i));
+      const Vec2 c0 = base.stem.pith[i] + outline_centroid(base.stem, i);
+      const Vec2 c1 = ecc.stem.pith[i] + outline_centroid(ecc.stem, i);
+      EXPECT_LT((c1 - c0).norm(), 0.1);
+      const auto [lo, hi] =
+          std::minmax_element(ecc.stem.radius[i].begin(), ecc.stem.radius[i].end());
+      const double r = std::sqrt(ecc.stem.area(i) / kPi);
+      EXPECT_LT(*lo, 0.85 * r);  // 0.75 r, give or take the ovality and lobes
+      EXPECT_GT(*hi, 1.15 * r);
+    }
+    EXPECT_FALSE(ecc.knots.empty());
+  }
+}
+
+// Not asked (eccentricity_max < 0), the other eccentricity options change nothing: the log is
+// the default's, byte for byte (the committed samples below check the default itself).
+TEST(LogGenerator, EccentricityNotAskedLeavesTheLogAsItWas) {
+  for (Species sp : kSpecies) {
+    const std::string plain = log_to_json(make(sp, 11));
+    EXPECT_EQ(log_to_json(make(sp, 11,
+                               [](GeneratorOptions& o) {
+                                 o.eccentricity_min = 0.1;
+                                 o.eccentricity_change = 0.2;
+                                 o.eccentricity_turn_rad = 1.0;
+                               })),
+              plain);
+    EXPECT_NE(log_to_json(eccentric(sp, 11, 0.1, 0.2)), plain);
+  }
+}
+
 // ---- Committed samples and the command line ----------------------------------------------------
 
 TEST(LogGenerator, CommittedSampleLogsAreExactlyWhatTheGeneratorMakes) {
@@ -650,6 +769,22 @@ TEST(LogGenerator, CommandLineWritesTheLibrarysLog) {
   ASSERT_TRUE(text) << text.error().message();
   EXPECT_EQ(text.value(), log_to_json(make(Species::kPine, 7)));
   EXPECT_THAT(output, HasSubstr("pine_s7"));
+
+  const fs::path ecc = tmp / "eccentric.json";
+  ASSERT_EQ(test::run_sawyer("generate --species pine --seed 7 --eccentricity 0.1,0.25 "
+                             "--eccentricity-change 0.08 --eccentricity-turn-rad 1 -o \"" +
+                                 ecc.string() + "\"",
+                             &output),
+            0)
+      << output;
+  const Result<std::string> ecc_text = read_text_file(ecc);
+  ASSERT_TRUE(ecc_text) << ecc_text.error().message();
+  EXPECT_EQ(ecc_text.value(), log_to_json(make(Species::kPine, 7, [](GeneratorOptions& o) {
+              o.eccentricity_min = 0.1;
+              o.eccentricity_max = 0.25;
+              o.eccentricity_change = 0.08;
+              o.eccentricity_turn_rad = 1;
+            })));
 }
 
 TEST(LogGenerator, CommandLineRejectsBadOptionsWithoutWriting) {
@@ -662,6 +797,16 @@ TEST(LogGenerator, CommandLineRejectsBadOptionsWithoutWriting) {
   EXPECT_THAT(output, HasSubstr("oak"));
   EXPECT_NE(test::run_sawyer("generate --position root -o \"" + out.string() + "\"", &output), 0);
   EXPECT_THAT(output, HasSubstr("root"));
+  EXPECT_NE(test::run_sawyer("generate --eccentricity 0.5 -o \"" + out.string() + "\"", &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("--eccentricity"));
+  EXPECT_NE(test::run_sawyer("generate --eccentricity 0.1,x -o \"" + out.string() + "\"", &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("--eccentricity"));
+  EXPECT_NE(
+      test::run_sawyer("generate --eccentricity-change 0.1 -o \"" + out.string() + "\"", &output),
+      0);
+  EXPECT_THAT(output, HasSubstr("needs --eccentricity"));
   EXPECT_FALSE(fs::exists(out));
 }
 

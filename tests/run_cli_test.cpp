@@ -285,3 +285,88 @@ TEST(RunCli, ABadRegisterFileIsRefusedBeforeTheScan) {
   EXPECT_NE(out.find("logs.sqlite"), std::string::npos) << out;
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
+
+// A complete scan is never thrown away (issue 41): a pattern far wider than the log cannot be
+// sawn from it, yet the run writes the scan, run.json (saying why, with the two diameters) and a
+// report that says why, adds no register row, prints one line why and exits 4 (docs/run.md);
+// `sawyer report` on the folder writes the same report again.
+TEST(RunCli, APatternThatDoesNotFitWritesTheScanAndAReportAndExitsFour) {
+  const fs::path ct = small_ct();
+  ASSERT_FALSE(ct.empty());
+  test::TempDir dir;
+  const fs::path pattern = dir / "huge.json";
+  test::write_file(pattern, R"({"format": "sawyer-pattern/1", "name": "huge",
+    "boards": [
+      {"name": "1", "u_mm": -101.5, "v_mm": 0, "thickness_mm": 200, "width_mm": 400},
+      {"name": "2", "u_mm": 101.5, "v_mm": 0, "thickness_mm": 200, "width_mm": 400}]})");
+  std::string out;
+  const int rc = test::run_sawyer("run " + test::quoted(ct) + " -o " + test::quoted(dir / "out") +
+                                      " --pattern " + test::quoted(pattern) + " --db " +
+                                      test::quoted(dir / "logs.sqlite") + " --id g40 -q",
+                                  &out);
+  ASSERT_EQ(rc, 4) << out;
+  // One line on stderr says why (test::run_sawyer merges stderr into `out`).
+  EXPECT_NE(out.find("sawyer: log 'g40': pattern 'huge' does not fit: it needs a diameter of"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("not sawn: the scan, run.json and report are in"), std::string::npos) << out;
+  EXPECT_NE(out.find("NOT SAWN: pattern 'huge' needs a diameter of"), std::string::npos) << out;
+  for (const char* f : {"scan/log.json", "scan/qa/pith_track.png", "run.json", "report/report.pdf",
+                        "report/report.html", "report/report.json", "report/boards.csv",
+                        "report/images/top_end.png"})
+    EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "out" / "sawing.json"));
+
+  const Json run = read_json(dir / "out" / "run.json");
+  ASSERT_FALSE(run.is_discarded());
+  EXPECT_EQ(run["outcome"], "not sawn") << run.dump(1);
+  ASSERT_TRUE(run.contains("not_sawn")) << run.dump(1);
+  const double needed = run["not_sawn"]["needed_diameter_mm"].get<double>();
+  const double usable = run["not_sawn"]["usable_diameter_mm"].get<double>();
+  EXPECT_GT(needed, 500.0);
+  EXPECT_GT(usable, 100.0);
+  EXPECT_LT(usable, needed);
+  EXPECT_NE(run["not_sawn"]["reason"].get<std::string>().find("does not fit"), std::string::npos);
+  EXPECT_EQ(run["not_sawn"]["pattern"], "huge");
+  EXPECT_FALSE(run.contains("position_trusted"));
+  EXPECT_TRUE(run.contains("qa"));
+  ASSERT_GE(run["stages"].size(), 2u);
+  EXPECT_EQ(run["stages"][0]["name"], "scan");
+  const Json log = read_json(dir / "out" / "scan" / "log.json");
+  ASSERT_FALSE(log.is_discarded());
+  EXPECT_FALSE(log["knots"].empty());
+  // No position, no value: the register has no row for it.
+  EXPECT_EQ(rows(dir / "logs.sqlite"), 0);
+
+  // The report says why, with both diameters.
+  const Json rep = read_json(dir / "out" / "report" / "report.json");
+  ASSERT_FALSE(rep.is_discarded());
+  EXPECT_EQ(rep["outcome"], "not sawn");
+  EXPECT_TRUE(rep["boards"].empty());
+  const std::string html = [&] {
+    std::ifstream f(dir / "out" / "report" / "report.html");
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  }();
+  char diameters[160];
+  std::snprintf(diameters, sizeof diameters, "needs a log at least %.1f mm across",
+                run["not_sawn"]["needed_diameter_mm"].get<double>());
+  EXPECT_NE(html.find("NOT SAWN"), std::string::npos);
+  EXPECT_NE(html.find(diameters), std::string::npos) << diameters;
+  std::string pdf_text;
+  if (test::run_command("command -v pdftotext >/dev/null", &pdf_text) == 0) {
+    ASSERT_EQ(
+        test::run_command("pdftotext " + test::quoted(dir / "out" / "report" / "report.pdf") + " -",
+                          &pdf_text),
+        0);
+    EXPECT_NE(pdf_text.find("NOT SAWN"), std::string::npos) << pdf_text;
+    char usable_text[64];
+    std::snprintf(usable_text, sizeof usable_text, "%.1f mm", usable);
+    EXPECT_NE(pdf_text.find(usable_text), std::string::npos) << usable_text << "\n" << pdf_text;
+  }
+
+  // `sawyer report` on the folder: the same report again.
+  fs::remove_all(dir / "out" / "report");
+  ASSERT_EQ(test::run_sawyer("report -q " + test::quoted(dir / "out"), &out), 0) << out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "report" / "report.pdf"));
+  EXPECT_EQ(read_json(dir / "out" / "report" / "report.json")["outcome"], "not sawn");
+}

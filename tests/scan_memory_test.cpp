@@ -108,20 +108,38 @@ TEST(ScanMemory, FineSlicesGiveAStemAtTheStepThatAgreesWithOnePerSlice) {
               worst_pith, std::sqrt(radius_err2 / n));
   EXPECT_LT(worst_pith, 0.2);
   EXPECT_LT(std::sqrt(radius_err2 / n), 0.5);
-  // The knot pass unrolled around either stem: the same knots, where they were.
-  ASSERT_EQ(coarse.knots.size(), fine.knots.size());
+  // The knot pass unrolled around either stem: the same knots, where they were. A knot near the
+  // detection threshold may be found around one stem and not the other (or split in two), so
+  // each knot of the shorter list is paired with the nearest unpaired one of the longer (by its
+  // axis point, 40 mm out or at its end: its formula's z0, omega0 and twist trade against each
+  // other within the fit's noise); all of the shorter list pair, and they are most of the
+  // longer.
   ASSERT_GT(coarse.knots.size(), 0u);
-  // (Compared where the knot is, 40 mm out or at its end: its formula's z0, omega0 and twist
-  // trade against each other within the fit's noise.)
-  for (size_t i = 0; i < coarse.knots.size(); ++i) {
-    const Knot &a = coarse.knots[i], &b = fine.knots[i];
+  const bool coarse_shorter = coarse.knots.size() <= fine.knots.size();
+  const std::vector<Knot>& few = coarse_shorter ? coarse.knots : fine.knots;
+  const std::vector<Knot>& many = coarse_shorter ? fine.knots : coarse.knots;
+  EXPECT_GE(static_cast<double>(few.size()), 0.85 * static_cast<double>(many.size()))
+      << coarse.knots.size() << " knots around the coarse stem, " << fine.knots.size()
+      << " around the fine one";
+  const auto apart = [](const Knot& a, const Knot& b) {
+    const double r = std::min({40.0, a.r_end, b.r_end});
+    const double dh = a.height_at(r) - b.height_at(r);
+    const double arc = r * std::remainder(a.azimuth_at(r) - b.azimuth_at(r), kTwoPi);
+    return std::hypot(dh, arc);
+  };
+  std::vector<bool> taken(many.size(), false);
+  for (size_t i = 0; i < few.size(); ++i) {
+    size_t best = many.size();
+    for (size_t j = 0; j < many.size(); ++j)
+      if (!taken[j] && (best == many.size() || apart(few[i], many[j]) < apart(few[i], many[best])))
+        best = j;
+    ASSERT_LT(best, many.size()) << "knot " << i << " has no partner";
+    taken[best] = true;
+    const Knot &a = few[i], &b = many[best];
     const double r = std::min({40.0, a.r_end, b.r_end});
     std::printf("knot %zu at r %.0f mm: height %.2f / %.2f mm, azimuth %.3f / %.3f rad\n", i, r,
                 a.height_at(r), b.height_at(r), a.azimuth_at(r), b.azimuth_at(r));
-    // The axis points apart (mm): along the log, and round it.
-    const double dh = a.height_at(r) - b.height_at(r);
-    const double arc = r * std::remainder(a.azimuth_at(r) - b.azimuth_at(r), kTwoPi);
-    EXPECT_LT(std::hypot(dh, arc), 3.0) << "knot " << i;
+    EXPECT_LT(apart(a, b), 3.0) << "knot " << i;
     EXPECT_NEAR(a.r_end, b.r_end, 10.0) << "knot " << i;
   }
 }

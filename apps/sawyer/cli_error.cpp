@@ -45,6 +45,10 @@ constexpr OptionName kFlags[] = {
     {"BakeOptions::supersample", "--supersample"},
     {"RunJobOptions::db", "--db"},
     {"RunJobOptions::no_register", "--no-register"},
+    {"eccentricity_min", "--eccentricity"},
+    {"eccentricity_max", "--eccentricity"},
+    {"eccentricity_change", "--eccentricity-change"},
+    {"eccentricity_turn_rad", "--eccentricity-turn-rad"},
     // The phantom's and the CT readers' options are their flags, '_' for '-', but for three.
     {"PhantomOptions::image_size", "--size"},
     {"PhantomOptions::slice_spacing_mm", "--spacing-mm"},

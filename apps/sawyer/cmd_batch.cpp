@@ -179,11 +179,13 @@ int run(const BatchCli& c) {
   po.timeout_s = c.timeout_s;
   po.on_finished = [](const JobResult& r, int done, int total) {
     std::cout << "[" << done << "/" << total << "] " << r.id << " "
-              << (r.ok()       ? "ok"
-                  : r.warned() ? "ok, QA warnings"
-                               : "FAILED")
+              << (r.ok()         ? "ok"
+                  : r.warned()   ? "ok, QA warnings"
+                  : r.not_sawn() ? "NOT SAWN"
+                                 : "FAILED")
               << " " << seconds_text(r.seconds) << " s";
-    if (!r.completed()) std::cout << ": " << r.error;
+    // Why, for a failed log and for one the pattern does not fit.
+    if (!r.completed() || r.not_sawn()) std::cout << ": " << r.error;
     std::cout << "\n" << std::flush;
   };
   const auto t0 = std::chrono::steady_clock::now();
@@ -202,13 +204,15 @@ int run(const BatchCli& c) {
     if (r) reg.emplace(std::move(r).value());
   }
   std::string csv = "id,ct,status,exit_code,seconds,value,error\n";
-  int failed = 0, warned = 0;
+  int failed = 0, warned = 0, not_sawn = 0;
   for (size_t i = 0; i < rows.size(); ++i) {
     const JobResult& r = results[i];
     failed += !r.completed();
     warned += r.warned();
+    not_sawn += r.not_sawn();
     std::string value;
-    if (r.completed() && reg) {
+    // A log that was not sawn has no register row of this run (an earlier run's may be there).
+    if (r.completed() && !r.not_sawn() && reg) {
       const fs::path source = fs::weakly_canonical(rows[i]->ct_path, ec);
       Result<std::optional<LogRecord>> rec = reg->find(source.string());
       if (rec && rec.value()) {
@@ -218,17 +222,21 @@ int run(const BatchCli& c) {
       }
     }
     csv += csv_cell(r.id) + "," + csv_cell(rows[i]->ct_path.string()) + "," +
-           (r.ok()       ? "ok"
-            : r.warned() ? "qa_warnings"
-                         : "failed") +
+           (r.ok()         ? "ok"
+            : r.warned()   ? "qa_warnings"
+            : r.not_sawn() ? "not_sawn"
+                           : "failed") +
            "," + std::to_string(r.exit_code) + "," + seconds_text(r.seconds) + "," + value + "," +
            csv_cell(r.error) + "\n";
   }
   const fs::path csv_path = out_dir / ("batch_" + std::to_string(shard.value().index) + ".csv");
   if (Status s = write_text_file_atomic(csv_path, csv); !s) return fail(s.error());
-  std::cout << "batch: " << rows.size() - static_cast<size_t>(failed) << " ok (" << warned
-            << " with QA warnings), " << failed << " failed of " << rows.size() << " in "
-            << seconds_text(total_s) << " s; " << csv_path.string() << "\n";
+  std::cout << "batch: " << rows.size() - static_cast<size_t>(failed + not_sawn) << " ok ("
+            << warned << " with QA warnings), " << not_sawn << " not sawn, " << failed
+            << " failed of " << rows.size() << " in " << seconds_text(total_s) << " s; "
+            << csv_path.string() << "\n";
+  // A log that was not sawn is done (its scan and report are written; another pattern, not a
+  // rerun, would saw it): it does not make the batch partial.
   return failed ? 2 : 0;
 }
 
@@ -239,7 +247,8 @@ void add_batch_command(CLI::App& app, std::function<int()>& run_out) {
   CLI::App* cmd = app.add_subcommand(
       "batch",
       "Run `sawyer run` on every CT scan of a manifest (ct,id,species,... CSV), one subprocess "
-      "per log, and register them; exit 0 all ok, 2 some failed, 1 bad manifest or options");
+      "per log, and register them; exit 0 all done (ok, QA warnings or not sawn), 2 some "
+      "failed, 1 bad manifest or options");
   cmd->add_option("manifest", c->manifest,
                   "CSV with a header: ct (required; relative to the manifest's folder), id, "
                   "species, pattern, grading, prices, position")

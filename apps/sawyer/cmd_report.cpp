@@ -55,6 +55,10 @@ int run(const ReportCli& c) {
   }
   std::printf("wrote %s (report.pdf %d pages, report.html, boards.csv, report.json, %zu images)\n",
               f.dir.string().c_str(), f.pages, f.images.size());
+  // A run that scanned the log but could not saw it (docs/run.md "Not sawn"): its report says
+  // why, and so does this line.
+  if (const auto& ns = folder.value().run.not_sawn)
+    std::printf("not sawn: %s\n", ns->reason.c_str());
   return 0;
 }
 

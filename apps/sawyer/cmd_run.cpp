@@ -9,6 +9,7 @@
 #include "cmd_saw.h"
 #include "ct_options.h"
 #include "progress.h"
+#include "sawyer/core/interrupt.h"
 #include "sawyer/ct/jobs/run_job.h"
 
 namespace sawyer::app {
@@ -21,20 +22,57 @@ struct RunCli {
   bool quiet = false;
 };
 
-// The one-screen summary of a finished run on stdout.
-void print_summary(const ct::RunOutcome& run, bool no_report) {
+// The log's figures, the first line of the summary.
+void print_log_line(const ct::RunOutcome& run) {
   const LogModel& log = run.log();
   const LogSummary& summary = run.summary;
-  const sawing::SawSetup& su = run.setup;
-  const sawing::SawingOutcome& out = run.outcome();
-  const std::string& cur = su.prices.currency;
-  const sawing::LogPosition& p = run.position();
   std::printf(
       "\nlog %s (%s): %.2f m, diameter butt %.0f / top %.0f / mean %.0f mm, %.3f m3, "
       "taper %.1f mm/m, %d knots (%d with a dead part)\n",
       log.id.c_str(), log.species.c_str(), summary.length_mm * 1e-3, summary.butt_diameter_mm,
       summary.top_diameter_mm, summary.mean_diameter_mm, summary.volume_m3, summary.taper_mm_per_m,
       summary.knot_count, summary.dead_knots);
+}
+
+// The end of the summary: times, memory, register, the QA verdict, where the files are.
+void print_summary_end(const ct::RunOutcome& run, bool no_report) {
+  std::printf("time:");
+  for (const auto& s : run.stages) std::printf(" %s %.2f s,", s.name.c_str(), s.seconds);
+  std::printf(" total %.2f s\n", run.seconds);
+  std::printf("memory: peak %.0f MB; planned %s\n", ct::peak_rss_mb(),
+              run.scan.memory.describe().c_str());
+  if (!run.db.empty())
+    std::printf(run.not_sawn ? "register: %s not changed (a log that was not sawn has no row)\n"
+                             : "register: %s\n",
+                run.db.string().c_str());
+  std::printf("%s\n", ct::qa_report(run.log().qa.value_or(ScanQa{})).c_str());
+  if (!no_report)
+    std::printf("report: %s\n        %s\n",
+                (run.out_dir / "report" / "report.pdf").string().c_str(),
+                (run.out_dir / "report" / "report.html").string().c_str());
+  else
+    std::printf("results: %s\n", run.out_dir.string().c_str());
+}
+
+// The summary of a run whose log was not sawn: the log's figures, why, and where the files are.
+void print_not_sawn_summary(const ct::RunOutcome& run, bool no_report) {
+  const report::NotSawn& ns = *run.not_sawn;
+  print_log_line(run);
+  std::printf(
+      "NOT SAWN: pattern '%s' needs a diameter of %.1f mm; the log's usable diameter is %.1f mm "
+      "(inscribed in the top end, under bark)\n",
+      ns.pattern.c_str(), ns.needed_diameter_mm, ns.usable_diameter_mm);
+  print_summary_end(run, no_report);
+}
+
+// The one-screen summary of a finished run on stdout.
+void print_summary(const ct::RunOutcome& run, bool no_report) {
+  const LogSummary& summary = run.summary;
+  const sawing::SawSetup& su = run.setup;
+  const sawing::SawingOutcome& out = run.outcome();
+  const std::string& cur = su.prices.currency;
+  const sawing::LogPosition& p = run.position();
+  print_log_line(run);
   std::printf("pattern %s, grading %s: %s position rot %.1f° x %+.1f y %+.1f mm, value %.2f %s",
               su.pattern.name.c_str(), su.rules.name.c_str(), su.position ? "given" : "best",
               p.rotation_deg, p.offset_x_mm, p.offset_y_mm, out.chosen_value().value, cur.c_str());
@@ -60,19 +98,7 @@ void print_summary(const ct::RunOutcome& run, bool no_report) {
   print_boards(out.chosen_sawn(), out.chosen_value(), su.rules, cur, stdout);
   std::printf("boards %.4f m3 of %.4f m3: volume yield %.1f %%\n", board_m3, summary.volume_m3,
               summary.volume_m3 > 0 ? 100 * board_m3 / summary.volume_m3 : 0.0);
-  std::printf("time:");
-  for (const auto& s : run.stages) std::printf(" %s %.2f s,", s.name.c_str(), s.seconds);
-  std::printf(" total %.2f s\n", run.seconds);
-  std::printf("memory: peak %.0f MB; planned %s\n", ct::peak_rss_mb(),
-              run.scan.memory.describe().c_str());
-  if (!run.db.empty()) std::printf("register: %s\n", run.db.string().c_str());
-  std::printf("%s\n", ct::qa_report(log.qa.value_or(ScanQa{})).c_str());
-  if (!no_report)
-    std::printf("report: %s\n        %s\n",
-                (run.out_dir / "report" / "report.pdf").string().c_str(),
-                (run.out_dir / "report" / "report.html").string().c_str());
-  else
-    std::printf("results: %s\n", run.out_dir.string().c_str());
+  print_summary_end(run, no_report);
 }
 
 int run(const RunCli& c) {
@@ -90,6 +116,16 @@ int run(const RunCli& c) {
   };
   Result<std::unique_ptr<ct::RunOutcome>> run = ct::run_job(c.job, obs);
   if (!run) return fail(run.error());
+  // The scan was complete, the pattern cannot be sawn from the log: the folder holds the scan,
+  // run.json and a report that say why; "not sawn" (README, exit codes).
+  if (const auto& ns = run.value()->not_sawn) {
+    print_not_sawn_summary(*run.value(), c.job.no_report);
+    std::fflush(stdout);
+    std::fprintf(stderr, "sawyer: %s; not sawn: the scan%s are in %s\n", ns->reason.c_str(),
+                 c.job.no_report ? " and run.json" : ", run.json and report",
+                 run.value()->out_dir.string().c_str());
+    return kExitNotSawn;  // `sawyer batch` counts it "not_sawn" (reg::JobResult::not_sawn)
+  }
   print_summary(*run.value(), c.job.no_report);
   // Everything was written; the scan's QA verdict failed, so the position is not to be trusted:
   // "completed with warnings" (README, exit codes).
@@ -109,7 +145,9 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
   CLI::App* cmd = app.add_subcommand(
       "run",
       "The main job: a CT scan in; stem and knots, the best sawing position, the cutting "
-      "report (PDF, HTML, CSV, JSON) out; the log registered");
+      "report (PDF, HTML, CSV, JSON) out; the log registered. Exit 0 done; 3 done, but the "
+      "scan's QA verdict failed; 4 not sawn: the pattern does not fit the log (scan, run.json "
+      "and a report saying why written, no register row); 1 bad input, nothing written");
   cmd->add_option("input", c->job.scan.input, "CT scan: DICOM/TIFF/PNG folder, .vti, .mha, .nrrd")
       ->required();
   cmd->add_option("-o,--output", c->job.output,

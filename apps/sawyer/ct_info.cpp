@@ -12,6 +12,7 @@
 #include "cli_error.h"
 #include "ct_options.h"
 #include "sawyer/ct/io/limits.h"
+#include "sawyer/ct/io/scanner_frame.h"
 
 namespace sawyer::app {
 
@@ -171,7 +172,7 @@ Status print_ct_info(const std::filesystem::path& path, const ct::OpenOptions& o
   const auto& o = g.orientation;
   row("orientation", "row (" + fixed(o[0], 3) + ", " + fixed(o[1], 3) + ", " + fixed(o[2], 3) +
                          ") column (" + fixed(o[3], 3) + ", " + fixed(o[4], 3) + ", " +
-                         fixed(o[5], 3) + ")");
+                         fixed(o[5], 3) + "): " + ct::slice_orientation_text(g));
   row("stored",
       std::to_string(g.bits_stored) + "-bit " +
           (g.bits_stored == 32 ? "float" : std::string(g.pixel_signed ? "signed" : "unsigned")) +

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <stdexcept>
 #include <string>
 
 #include "cli_error.h"
@@ -79,8 +80,34 @@ int cmd_convert(const std::string& input, const std::string& output, std::string
   return 0;
 }
 
+// --eccentricity MIN,MAX (or one share for both) into the generator's range.
+Status parse_eccentricity(const std::string& text, GeneratorOptions& o) {
+  const Error bad(
+      "--eccentricity",
+      "must be MIN,MAX or one value, shares of the radius (e.g. 0,0.25), got '" + text + "'");
+  const size_t comma = text.find(',');
+  try {
+    size_t used = 0;
+    const std::string a = text.substr(0, comma);
+    o.eccentricity_min = std::stod(a, &used);
+    if (used != a.size()) return bad;
+    o.eccentricity_max = o.eccentricity_min;
+    if (comma != std::string::npos) {
+      const std::string b = text.substr(comma + 1);
+      o.eccentricity_max = std::stod(b, &used);
+      if (used != b.size()) return bad;
+    }
+  } catch (const std::exception&) {
+    return bad;
+  }
+  // A negative maximum would mean "not asked" to the generator: refuse it here.
+  if (o.eccentricity_max < 0) return bad;
+  return Status::Ok();
+}
+
 int cmd_generate(const std::string& species, std::uint64_t seed, double length_m, double top_mm,
-                 const std::string& position, const std::string& output) {
+                 const std::string& position, const std::string& eccentricity,
+                 const double* ecc_change, const double* ecc_turn_rad, const std::string& output) {
   Result<Species> sp = parse_species(species);
   if (!sp) return fail(sp.error());
   Result<LogPosition> pos = parse_log_position(position);
@@ -91,6 +118,15 @@ int cmd_generate(const std::string& species, std::uint64_t seed, double length_m
   o.seed = seed;
   o.length_mm = length_m * 1e3;
   o.top_diameter_mm = top_mm;
+  if (!eccentricity.empty()) {
+    Status e = parse_eccentricity(eccentricity, o);
+    if (!e) return fail(e.error());
+  } else if (ecc_change || ecc_turn_rad) {
+    return fail(Error(ecc_change ? "--eccentricity-change" : "--eccentricity-turn-rad",
+                      "needs --eccentricity MIN,MAX"));
+  }
+  if (ecc_change) o.eccentricity_change = *ecc_change;
+  if (ecc_turn_rad) o.eccentricity_turn_rad = *ecc_turn_rad;
   Status v = o.validate();
   if (!v) return fail(v.error());
   Result<OutputLock> lock = OutputLock::acquire({output, OutputKind::kFile, {}, "-o"});
@@ -135,9 +171,9 @@ int main(int argc, char** argv) {
                    "log | published | float (default: log for .json, else published)")
       ->check(CLI::IsMember({"log", "published", "float"}));
 
-  std::string gen_species = "spruce", gen_out, gen_position = "drawn";
+  std::string gen_species = "spruce", gen_out, gen_position = "drawn", gen_ecc;
   std::uint64_t gen_seed = 1;
-  double gen_length_m = 0, gen_top_mm = 0;
+  double gen_length_m = 0, gen_top_mm = 0, gen_ecc_change = 0, gen_ecc_turn = 0;
   CLI::App* generate = app.add_subcommand("generate", "Generate a realistic random log model");
   generate->add_option("--species", gen_species, "pine | spruce")->capture_default_str();
   generate->add_option("--seed", gen_seed, "random seed (same seed, same log)")
@@ -147,6 +183,17 @@ int main(int argc, char** argv) {
                        "top diameter under bark (default: random)");
   generate->add_option("--position", gen_position,
                        "where in the tree: butt | middle | top | drawn (default: drawn)");
+  generate->add_option("--eccentricity", gen_ecc,
+                       "MIN,MAX: the pith this share of the radius off the outline's centre "
+                       "(0-0.4; real piths 0-0.25), changing along the log (default: 1-5 %)");
+  CLI::Option* gen_ecc_change_opt = generate->add_option(
+      "--eccentricity-change", gen_ecc_change,
+      "with --eccentricity: how much it changes along the log, share of the radius "
+      "(default 0.05)");
+  CLI::Option* gen_ecc_turn_opt =
+      generate->add_option("--eccentricity-turn-rad", gen_ecc_turn,
+                           "with --eccentricity: its direction turns by up to this over the log "
+                           "(default 0.5)");
   generate->add_option("-o,--output", gen_out, "log.json to write")->required();
 
   std::function<int()> run_phantom;
@@ -192,6 +239,8 @@ int main(int argc, char** argv) {
   if (run_report) return run_report();
   if (run_export) return run_export();
   if (*generate)
-    return cmd_generate(gen_species, gen_seed, gen_length_m, gen_top_mm, gen_position, gen_out);
+    return cmd_generate(gen_species, gen_seed, gen_length_m, gen_top_mm, gen_position, gen_ecc,
+                        gen_ecc_change_opt->count() ? &gen_ecc_change : nullptr,
+                        gen_ecc_turn_opt->count() ? &gen_ecc_turn : nullptr, gen_out);
   return 0;
 }

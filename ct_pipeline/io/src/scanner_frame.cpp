@@ -1,5 +1,6 @@
 // to_scanner_axes(): axial slices mirrored and/or transposed so that x runs along the scanner's
-// +x and y along +y; oblique ones refused (see scanner_frame.h).
+// +x and y along +y; coronal and sagittal ones kept as stored; oblique ones refused (see
+// scanner_frame.h).
 #include "sawyer/ct/io/scanner_frame.h"
 
 #include <cmath>
@@ -36,12 +37,44 @@ std::string tolerance_text() {
   return s;
 }
 
+// "+x", "-y", ...: the scanner axis `a` that direction d runs along, with its sign.
+std::string axis_text(const Vec3& d, int a) {
+  return std::string(component(d, a) < 0 ? "-" : "+") + "xyz"[a];
+}
+
+// The three directions of a geometry, each named by the scanner axis it runs along (-1: none).
+struct SliceAxes {
+  Vec3 row, col;
+  int row_axis, col_axis, slice_axis;
+  bool along_axes() const {
+    return row_axis >= 0 && col_axis >= 0 && slice_axis >= 0 && row_axis != col_axis &&
+           row_axis != slice_axis && col_axis != slice_axis;
+  }
+};
+
+SliceAxes slice_axes(const VolumeGeometry& g) {
+  const auto& o = g.orientation;
+  SliceAxes a{{o[0], o[1], o[2]}, {o[3], o[4], o[5]}, 0, 0, 0};
+  a.row_axis = axis_of(a.row);
+  a.col_axis = axis_of(a.col);
+  a.slice_axis = axis_of(g.slice_dir);
+  return a;
+}
+
+// "coronal slices: the log's z along the scanner's +y", for a geometry along the axes.
+std::string orientation_name(const VolumeGeometry& g, int slice_axis) {
+  static const char* const kPlane[3] = {"sagittal", "coronal", "axial"};
+  return std::string(kPlane[slice_axis]) + " slices: the log's z along the scanner's " +
+         axis_text(g.slice_dir, slice_axis);
+}
+
 // How new pixel (i', j') reads file pixel (i, j): along each new axis, which file index it
 // follows and whether it counts down.
 struct PixelMap {
   bool transposed = false;  // new columns follow the file's rows
   bool flip_x = false;      // new column 0 is the last file index along x
   bool flip_y = false;      // new row 0 is the last file index along y
+  bool identity() const { return !transposed && !flip_x && !flip_y; }
 };
 
 class ScannerAxesSource final : public SliceSource {
@@ -58,6 +91,7 @@ class ScannerAxesSource final : public SliceSource {
   const std::vector<std::string>& notes() const override { return notes_; }
 
   Status read(int i, Slice& out) override {
+    if (map_.identity()) return src_->read(i, out);  // only a note added: no copy
     if (Status st = src_->read(i, buf_); !st) return st;
     const int w = buf_.width, h = buf_.height;
     const int nw = map_.transposed ? h : w, nh = map_.transposed ? w : h;
@@ -91,18 +125,28 @@ class ScannerAxesSource final : public SliceSource {
 Result<std::unique_ptr<SliceSource>> to_scanner_axes(std::unique_ptr<SliceSource> source,
                                                      const std::string& where) {
   const VolumeGeometry& g = source->geometry();
-  const auto& o = g.orientation;
-  const Vec3 row{o[0], o[1], o[2]}, col{o[3], o[4], o[5]};
-  const int ra = axis_of(row), ca = axis_of(col), na = axis_of(g.slice_dir);
-  if (ra < 0 || ca < 0 || ra == 2 || ca == 2 || ra == ca || na != 2) {
+  const SliceAxes a = slice_axes(g);
+  const Vec3 &row = a.row, &col = a.col;
+  if (!a.along_axes()) {
     return Error(where, "slice orientation rows " + vec_text(row) + ", columns " + vec_text(col) +
                             ", slices along " + vec_text(g.slice_dir) +
-                            " is not axial: rows and columns must run along the scanner's x "
-                            "and y axes and the slices along z (direction cosines within " +
+                            " is oblique: rows, columns and slices must each run along one of "
+                            "the scanner's axes (direction cosines within " +
                             tolerance_text() + "); Sawyer does not resample oblique scans");
   }
+  if (a.slice_axis != 2) {
+    // Coronal or sagittal: no turn of the slices puts x and y on the scanner's x and y, and the
+    // slices are the log's cross-sections as they are, so they are read as stored;
+    // scanner_frame_of() records the frame that maps the model back (ScannerFrame).
+    std::string note = orientation_name(g, a.slice_axis) + " (rows " + vec_text(row) +
+                       ", columns " + vec_text(col) +
+                       " in the file); x and y are measured in the slices as stored";
+    VolumeGeometry same = g;
+    return std::unique_ptr<SliceSource>(
+        new ScannerAxesSource(std::move(source), PixelMap{}, std::move(same), std::move(note)));
+  }
   PixelMap m;
-  m.transposed = ra == 1;
+  m.transposed = a.row_axis == 1;
   // The file direction that becomes the new x (and y), and whether it points the wrong way.
   const Vec3& along_x = m.transposed ? col : row;
   const Vec3& along_y = m.transposed ? row : col;
@@ -110,7 +154,7 @@ Result<std::unique_ptr<SliceSource>> to_scanner_axes(std::unique_ptr<SliceSource
   m.flip_y = component(along_y, 1) < 0;
   const double dir_z = g.slice_dir.z < 0 ? -1.0 : 1.0;
   // Along the axes already (within the tolerance): nothing to turn; z's sign is slice_dir.z.
-  if (!m.transposed && !m.flip_x && !m.flip_y) return source;
+  if (m.identity()) return source;
 
   VolumeGeometry n = g;
   n.file_axes = VolumeGeometry::FileAxes{g.origin, g.orientation};
@@ -137,6 +181,12 @@ Result<std::unique_ptr<SliceSource>> to_scanner_axes(std::unique_ptr<SliceSource
   note += " (rows " + vec_text(row) + ", columns " + vec_text(col) +
           " in the file) so that x and y run along the scanner's +x and +y";
   return std::unique_ptr<SliceSource>(new ScannerAxesSource(std::move(source), m, n, note));
+}
+
+std::string slice_orientation_text(const VolumeGeometry& g) {
+  const SliceAxes a = slice_axes(g);
+  if (!a.along_axes()) return "oblique slices: the scan refuses them";
+  return orientation_name(g, a.slice_axis);
 }
 
 }  // namespace sawyer::ct

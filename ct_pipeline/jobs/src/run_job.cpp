@@ -44,11 +44,13 @@ std::string note_text(const char* format, auto... values) {
   return note;
 }
 
-report::RunRecord run_record(const RunJobOptions& c, const ScanJob& scan, const std::string& source,
-                             const std::string& checksum, const std::string& date,
-                             const std::vector<Stage>& stages) {
+report::RunRecord run_record(const RunJobOptions& c, const RunOutcome& run,
+                             const std::string& source, const std::string& checksum,
+                             const std::string& date) {
+  const ScanJob& scan = run.scan;
   report::RunRecord r;
   report::RunInfo& in = r.info;
+  in.not_sawn = run.not_sawn;
   in.log_id = scan.log().id;
   in.species = scan.log().species;
   in.scan_source = source;
@@ -72,7 +74,7 @@ report::RunRecord run_record(const RunJobOptions& c, const ScanJob& scan, const 
   in.grading = c.names.grading;
   in.prices = c.names.prices;
   in.position = c.names.position;
-  in.stages = stages;
+  in.stages = run.stages;
   return r;
 }
 
@@ -127,6 +129,17 @@ void release_written_detail(ScanResult& scan) {
   std::vector<UnrolledView>().swap(scan.unrolled);
   std::vector<KnotTrace>().swap(scan.knots.traces);
   std::vector<KnotFitReport>().swap(scan.knots.fits);
+}
+
+// Why the log cannot be sawn, when that is why saw_log_model() failed: the pattern needs a
+// larger diameter than the log's usable one (check_pattern_fits, whose message is the reason).
+// Empty for any other error.
+std::optional<report::NotSawn> not_sawn_reason(const LogModel& log, const sawing::Pattern& pattern,
+                                               const Error& error) {
+  const sawing::SawLog saw_log(log, 2);  // the usable diameter only: no knot detail
+  const double need = pattern.required_diameter_mm(), usable = saw_log.usable_diameter_mm();
+  if (sawing::check_pattern_fits(pattern, usable, log.id)) return std::nullopt;
+  return report::NotSawn{error.message(), pattern.name, need, usable};
 }
 
 }  // namespace
@@ -207,24 +220,39 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   t = Clock::now();
   Result<sawing::SawingOutcome> sawn = sawing::saw_log_model(
       log, su, [&](int done, int total) { update("saw", done, total, "positions"); });
-  if (!sawn) return sawn.error().with_context(log.id);
-  run->sawn.emplace(std::move(sawn.value()));
-  const sawing::SawingOutcome& out = run->outcome();
+  if (sawn) {
+    run->sawn.emplace(std::move(sawn.value()));
+  } else {
+    // A complete scan is never thrown away (issue 41): a pattern too large for the log leaves
+    // the scan, run.json and a report that says why. Any other failure is one.
+    run->not_sawn = not_sawn_reason(log, su.pattern, sawn.error());
+    if (!run->not_sawn) return sawn.error().with_context(log.id);
+  }
   stages.push_back({"saw", since(t), peak_rss_mb()});
-  stage_done(
-      "saw", stages.back().seconds,
-      note_text("%d positions, %zu boards", out.opt.positions, out.chosen_sawn().boards.size()));
-  // The decision first, for the operator at the saw: the files and the report follow.
-  if (obs.decision) obs.decision(decision_line(su, out));
+  if (run->sawn) {
+    const sawing::SawingOutcome& out = run->outcome();
+    stage_done(
+        "saw", stages.back().seconds,
+        note_text("%d positions, %zu boards", out.opt.positions, out.chosen_sawn().boards.size()));
+    // The decision first, for the operator at the saw: the files and the report follow.
+    if (obs.decision) obs.decision(decision_line(su, out));
+  } else {
+    stage_done("saw", stages.back().seconds,
+               note_text("not sawn: the pattern needs %.1f mm, the log has %.1f mm",
+                         run->not_sawn->needed_diameter_mm, run->not_sawn->usable_diameter_mm));
+  }
 
   std::string checksum;
   double report_seconds = 0;
   Status st = write_dir_atomic(run->out_dir, [&](const fs::path& tmp) -> Status {
     fs::create_directories(tmp / "scan");
     if (Status w = write_log_json(log, tmp / "scan" / "log.json"); !w) return w;
-    const nlohmann::ordered_json saw_file = sawing::sawing_file_json(log, su, out);
-    if (Status w = write_text_file_atomic(tmp / "sawing.json", saw_file.dump(1) + "\n"); !w)
-      return w;
+    // No sawing.json for a log that was not sawn: it would have no position (run.json says why).
+    if (run->sawn) {
+      const nlohmann::ordered_json saw_file = sawing::sawing_file_json(log, su, *run->sawn);
+      if (Status w = write_text_file_atomic(tmp / "sawing.json", saw_file.dump(1) + "\n"); !w)
+        return w;
+    }
     if (!c.no_register) {
       t = Clock::now();
       Result<std::string> sum = reg::ct_checksum(c.scan.input);
@@ -232,8 +260,8 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
       checksum = sum.value();
       stages.push_back({"checksum", since(t)});
     }
-    if (Status w = report::write_run_file(run_record(c, scan, source, checksum, date, stages),
-                                          tmp / "run.json");
+    if (Status w =
+            report::write_run_file(run_record(c, *run, source, checksum, date), tmp / "run.json");
         !w)
       return w;
     // The maps and QA images first; then the scan's per-slice arrays and views, which are in
@@ -247,7 +275,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
     if (!c.no_report) {
       // The report saws the boards again from the files; the run's own sawing tables (per stem
       // sample) would only sit beside its own (issue 24: the run's peak).
-      run->sawn->saw_log.release_tables();
+      if (run->sawn) run->sawn->saw_log.release_tables();
       t = Clock::now();
       Result<report::RunFolder> folder = report::load_run_folder(tmp);
       if (!folder) return folder.error();
@@ -263,12 +291,13 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
     // run.json again with the times of the work done since (the report shows scan and saw).
     stages.push_back({"write", write_seconds, write_peak_mb});
     if (!c.no_report) stages.push_back({"report", report_seconds, peak_rss_mb()});
-    if (Status w = report::write_run_file(run_record(c, scan, source, checksum, date, stages),
-                                          tmp / "run.json");
+    if (Status w =
+            report::write_run_file(run_record(c, *run, source, checksum, date), tmp / "run.json");
         !w)
       return w;
-    // Last, so that a register that refuses the row leaves no output behind either.
-    if (reg) {
+    // Last, so that a register that refuses the row leaves no output behind either. A log that
+    // was not sawn has no position or value to record, and the register no column to say so.
+    if (reg && run->sawn) {
       if (Status w = reg->upsert(register_record(*run, source, checksum, date)); !w) return w;
     }
     return Status::Ok();

@@ -20,7 +20,8 @@ namespace {
 // A slice as an 8-bit image (window -1000..+500 HU) with the stem drawn on it: outer contour
 // green, heartwood border yellow, pith a red cross. Pixel (col, row) is (x / sx, y / sy) in the
 // scan's image axes (rows along the scanner's +x); the label gives the pith in the scanner frame
-// (log.json's x, y) and the height both from the first slice and as the scanner's z.
+// (log.json's x, y; for a coronal or sagittal scan its x, y, z) and the height both from the
+// first slice and as the scanner's coordinate along the slices.
 cv::Mat qa_image(const Slice& s, const VolumeGeometry& g, const StemSliceRecord& r) {
   cv::Mat grey(s.height, s.width, CV_8UC1);
   for (int row = 0; row < s.height; ++row)
@@ -50,10 +51,20 @@ cv::Mat qa_image(const Slice& s, const VolumeGeometry& g, const StemSliceRecord&
   if (r.heartwood.present) draw(r.heartwood.radius, r.heartwood.valid, cv::Scalar(0, 220, 255));
   cv::drawMarker(img, to_px(r.pith.x, r.pith.y), cv::Scalar(0, 0, 255), cv::MARKER_CROSS, 12, 2);
   char text[2][96];
-  std::snprintf(text[0], sizeof text[0], "z %.1f mm (scanner z %.1f mm)", r.z,
-                g.origin.z + (g.slice_dir.z < 0 ? -r.z : r.z));
-  std::snprintf(text[1], sizeof text[1], "pith (%.1f, %.1f) mm, scanner frame",
-                r.pith.x + g.origin.x, r.pith.y + g.origin.y);
+  if (const ScannerFrame f = scanner_frame_of(g); !f.axial()) {
+    // Coronal or sagittal: log.json stays in the slices' axes; the label says where in the
+    // scanner the pith and the slice are.
+    const Vec3 p = f.to_scanner({r.pith.x, r.pith.y, r.z});
+    std::snprintf(text[0], sizeof text[0], "z %.1f mm (scanner %c %.1f mm)", r.z,
+                  "xyz"[f.slice_axis()], f.scanner_z(r.z));
+    std::snprintf(text[1], sizeof text[1], "pith (%.1f, %.1f, %.1f) mm, scanner frame", p.x, p.y,
+                  p.z);
+  } else {
+    std::snprintf(text[0], sizeof text[0], "z %.1f mm (scanner z %.1f mm)", r.z,
+                  g.origin.z + (g.slice_dir.z < 0 ? -r.z : r.z));
+    std::snprintf(text[1], sizeof text[1], "pith (%.1f, %.1f) mm, scanner frame",
+                  r.pith.x + g.origin.x, r.pith.y + g.origin.y);
+  }
   for (int line = 0; line < 2; ++line)
     cv::putText(img, text[line], {8, 20 + 18 * line}, cv::FONT_HERSHEY_SIMPLEX, 0.5,
                 cv::Scalar(255, 255, 255), 1, cv::LINE_AA);

@@ -140,6 +140,48 @@ struct WhorlOffsets {
   }
 };
 
+// The ring pith's offset from the shape centre, measured on each stretch of resolved slices
+// (kMinRingStretch at least), as WhorlOffsets nodes (at most kWhorlNodeMm long): a node's
+// offset is its slices' median, its error their spread (robust) over the square root of their
+// count, at least a pixel.
+constexpr int kMinRingStretch = 3;
+WhorlOffsets ring_offsets(const std::vector<double>& z, const std::vector<char>& resolved,
+                          const std::vector<Vec2>& track, const std::vector<Vec2>& shape,
+                          double pixel_mm) {
+  std::vector<double> nz, ne;
+  std::vector<Vec2> no;
+  const int n = static_cast<int>(resolved.size());
+  for (int i = 0; i < n;) {
+    if (!resolved[static_cast<size_t>(i)]) {
+      ++i;
+      continue;
+    }
+    int j = i;
+    while (j < n && resolved[static_cast<size_t>(j)]) ++j;
+    if (j - i >= kMinRingStretch) {
+      for (int a = i; a < j;) {  // nodes of at most kWhorlNodeMm along the stretch
+        int b = a;
+        std::vector<double> ox, oy, zz;
+        while (b < j && z[static_cast<size_t>(b)] - z[static_cast<size_t>(a)] <= kWhorlNodeMm) {
+          const Vec2 o = track[static_cast<size_t>(b)] - shape[static_cast<size_t>(b)];
+          ox.push_back(o.x), oy.push_back(o.y), zz.push_back(z[static_cast<size_t>(b)]);
+          ++b;
+        }
+        const Vec2 m{median(ox), median(oy)};
+        std::vector<double> dev;
+        for (size_t k = 0; k < ox.size(); ++k) dev.push_back((Vec2{ox[k], oy[k]} - m).norm());
+        const double spread = 1.4826 * median(dev) / std::sqrt(static_cast<double>(ox.size()));
+        nz.push_back(median(zz)), ne.push_back(std::max(spread, pixel_mm)), no.push_back(m);
+        a = b;
+      }
+    }
+    i = j;
+  }
+  WhorlOffsets w;
+  w.z = std::move(nz), w.e = std::move(ne), w.o = std::move(no);
+  return w;
+}
+
 // The pith from every cue (issue 20). The ring track (`track`, from `refined`) stands where the
 // rings were resolved; elsewhere (coarse pixels, faint rings, rot over the centre, or a ring
 // track that left the heart of the log) the pith follows the centre of the log's shape (the
@@ -232,7 +274,7 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     const Vec2 d = track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)];
     rec.rings_resolved = rec.ring_signal >= options.min_ring_signal &&
                          rec.ring_period_mm >= options.min_ring_period_px * pixel_mm &&
-                         d.norm() <= options.max_shape_offset * R;
+                         d.norm() <= options.max_eccentricity * R;
     resolved[static_cast<size_t>(i)] = rec.rings_resolved;
     if (rec.rings_resolved) offsets.push_back(d);
   }
@@ -277,7 +319,7 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
                                      region[static_cast<size_t>(i)], pixel_mm, options.whorl);
     // As for the rings: a pith this far off the shape centre is not believed.
     const double R = radius[static_cast<size_t>(i)] > 0 ? radius[static_cast<size_t>(i)] : r_log;
-    if (!w.found || w.pith_mm.norm() > options.max_shape_offset * R) continue;
+    if (!w.found || w.pith_mm.norm() > options.max_eccentricity * R) continue;
     double dz2 = 0;
     int c = 0;
     for (const WhorlStreak& st : w.streaks)
@@ -322,27 +364,22 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
   }
   WhorlOffsets whorls;
   whorls.build(kz, ke, ko);
-  // The pith's offset from the shape centre changes slowly along a log: where the rings were
-  // resolved on most of the scan, their median offset carries over to the rest (a few slices'
-  // rings, perhaps noise that lined up, do not move the whole shape track).
-  Vec2 ecc{0, 0};
-  if (offsets.size() >= 3 && 2 * offsets.size() >= static_cast<size_t>(n)) {
+  // The pith's offset from the shape centre changes slowly along a log, but real piths sit up to
+  // 20-25 % of the radius off it and wander (wind, compression wood; an S-shaped pith turns the
+  // offset round along the log): each stretch of slices with resolved rings measures it where it
+  // is, and an unresolved slice carries the offset of the nearest stretches along z (between
+  // two, interpolated), with an error that grows with the distance (ring_offsets). A stretch of
+  // fewer than kMinRingStretch slices (rings that lined up by chance) measures nothing.
+  const WhorlOffsets rings = ring_offsets(z, resolved, track, shape, pixel_mm);
+  PithSummary& sum = scan.pith_summary;
+  {
     std::vector<double> ox, oy;
     for (const Vec2& o : offsets) ox.push_back(o.x), oy.push_back(o.y);
-    ecc = {median(ox), median(oy)};
+    sum.eccentricity_mm = offsets.empty() ? 0.0 : Vec2{median(ox), median(oy)}.norm();
   }
-  PithSummary& sum = scan.pith_summary;
-  sum.eccentricity_mm = ecc.norm();
-  // Spread of the ring pith about the shifted shape centre where both are known: the shape
-  // cue's error on this log; without resolved rings, a tenth of the radius (the eccentricity
-  // of most logs).
-  std::vector<double> spread;
-  for (int i = 0; i < n; ++i)
-    if (resolved[static_cast<size_t>(i)])
-      spread.push_back(
-          (track[static_cast<size_t>(i)] - shape[static_cast<size_t>(i)] - ecc).norm());
-  const double shape_error =
-      ecc.norm() > 0 ? std::max(median(spread), g.spacing_x) : std::max(0.1 * r_log, g.spacing_x);
+  // Without resolved rings anywhere, the shape cue's error is a tenth of the radius (the
+  // eccentricity of most logs; up to a quarter in some, which the QA's limits then flag).
+  const double shape_error = std::max(0.1 * r_log, g.spacing_x);
   std::vector<PithResult> fused(static_cast<size_t>(n));
   std::vector<double> errors, signals;
   int shape_slices = 0, whorl_slices = 0, resolved_slices = 0, run_from = -1, best_from = -1,
@@ -359,22 +396,18 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
     StemSliceRecord& rec = scan.slices[static_cast<size_t>(i)];
     PithResult& f = fused[static_cast<size_t>(i)];
     f.found = true;
-    if (use_shape && !whorls.empty()) {
-      // The whorls' offset here, weighed against the shape cue's (which wins far from them).
-      double e = 0;
-      const Vec2 o = whorls.at(z[static_cast<size_t>(i)], &e);
-      const double a = 1.0 / (e * e), b = 1.0 / (shape_error * shape_error);
-      f.pith_mm = shape[static_cast<size_t>(i)] + (1.0 / (a + b)) * (a * o + b * ecc);
-      f.confidence = 0.7;
+    if (use_shape) {
+      // The offsets the resolved rings nearby and the whorls show here, each weighed by its
+      // error; with neither, the shape centre itself.
+      double er = shape_error, ew = 0;
+      const Vec2 o_rings = rings.empty() ? Vec2{0, 0} : rings.at(z[static_cast<size_t>(i)], &er);
+      const Vec2 o_whorls = whorls.empty() ? Vec2{0, 0} : whorls.at(z[static_cast<size_t>(i)], &ew);
+      const double b = 1.0 / (er * er), a = whorls.empty() ? 0.0 : 1.0 / (ew * ew);
+      f.pith_mm = shape[static_cast<size_t>(i)] + (1.0 / (a + b)) * (a * o_whorls + b * o_rings);
+      f.confidence = a >= b ? 0.7 : 0.5;
       rec.pith_cue = a >= b ? PithCue::whorls : PithCue::shape;
       rec.pith_expected_error_mm = std::max(1.0 / std::sqrt(a + b), 0.5 * pixel_mm);
       ++(a >= b ? whorl_slices : shape_slices);
-    } else if (use_shape) {
-      f.pith_mm = shape[static_cast<size_t>(i)] + ecc;
-      f.confidence = 0.5;
-      rec.pith_cue = PithCue::shape;
-      rec.pith_expected_error_mm = shape_error;
-      ++shape_slices;
     } else {
       f.pith_mm = track[static_cast<size_t>(i)];
       f.confidence = 1.0;
@@ -471,8 +504,15 @@ ScannerFrame scanner_frame_of(const VolumeGeometry& g) {
   f.origin_mm = file.origin;
   f.row_dir = Vec3{o[0], o[1], o[2]}.normalized();
   f.col_dir = Vec3{o[3], o[4], o[5]}.normalized();
-  f.z0_mm = g.origin.z;
-  f.z_dir = g.slice_dir.z < 0 ? -1.0 : 1.0;
+  // z runs along the slices: the scanner axis their normal is nearest (to_scanner_axes() has
+  // made sure it is along one), its sign and the first slice's coordinate on it.
+  f.slice_dir = g.slice_dir.normalized() + Vec3{0, 0, 0};  // + 0: no "-0" in log.json
+  const int axis = f.slice_axis();
+  const double along = axis == 0 ? f.slice_dir.x : axis == 1 ? f.slice_dir.y : f.slice_dir.z;
+  f.z_dir = along < 0 ? -1.0 : 1.0;
+  f.z0_mm = axis == 0 ? g.origin.x : axis == 1 ? g.origin.y : g.origin.z;
+  // An axial model's z is the scanner's z alone (ScannerFrame): its slice_dir is exact.
+  if (axis == 2) f.slice_dir = {0, 0, f.z_dir};
   return f;
 }
 

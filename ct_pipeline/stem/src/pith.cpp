@@ -64,12 +64,14 @@ constexpr int kAcquireCandidates = 5;
 constexpr double kAcquireApartMm = 8.0;
 constexpr double kAcquireRingSearchMm = 6.0;
 constexpr double kAcquireRingMaxMm = 60.0;
+constexpr double kWideBandMm = 12.0;  // wide_ring_score's bands of radius
 // Ring-profile signal share (0..1) by which another candidate must beat the strongest peak.
 constexpr double kAcquireMargin = 0.1;
 constexpr double kTukeyAngle = 0.9;    // rad (about 52 degrees)
 constexpr double kMinRadiusMm = 15.0;  // smaller wood blobs are not a log
 // Structure-tensor anisotropy above this many medians is an edge, not an annual ring.
 constexpr double kEdgeFactor = 4.0;
+constexpr double kUncappedEdgeFactor = 1e30;  // every edge votes (candidates_without_prior)
 // Box radius (pixels) of the structure tensor: wide where the rings are nearly straight (the
 // whole-slice vote and the vote near a prior), narrow for the refinement near the pith.
 constexpr int kCoarseTensorRadius = 5;
@@ -388,11 +390,12 @@ Extent find_extent(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv
 // has cells of `cell` pixels and covers the mm box [lo, hi]. Returns the peak (mm) and its
 // sharpness (1 - mean / peak); `others`, when given, gets up to `n_others` further local peaks
 // (cell centres, mm), strongest first, each at least `apart_mm` from the stronger ones.
+// Pixels whose anisotropy is above `edge_factor` times the voters' median do not vote.
 template <typename VotePred>
 Vec2 vote(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv, int x0, int y0, int w,
           int h, Vec2 lo, Vec2 hi, int cell, int stride, int tensor_radius, VotePred votes_in,
           double* sharpness, std::vector<Vec2>* others = nullptr, int n_others = 0,
-          double apart_mm = 0) {
+          double apart_mm = 0, double edge_factor = kEdgeFactor) {
   const Grid img = block_mean(s, 1, x0, y0, w, h);
   const double sx = g.spacing_x, sy = g.spacing_y;
   const Orientation o = orientation_field(img, tensor_radius, sx, sy);
@@ -408,7 +411,7 @@ Vec2 vote(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv, int x0,
   for (int j = 3; j + 3 < h; j += stride)
     for (int i = 3; i + 3 < w; i += stride)
       if (votes(x0 + i, y0 + j)) an.push_back(o.aniso.at(i, j));
-  const float cap = static_cast<float>(kEdgeFactor) * median_positive(an);
+  const float cap = static_cast<float>(edge_factor) * median_positive(an);
   const double cx_mm = cell * sx, cy_mm = cell * sy;
   const int aw = std::max(1, static_cast<int>(std::ceil((hi.x - lo.x) / cx_mm)) + 1);
   const int ah = std::max(1, static_cast<int>(std::ceil((hi.y - lo.y) / cy_mm)) + 1);
@@ -486,7 +489,8 @@ Vec2 vote(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv, int x0,
 
 // Full-resolution refinement around `c` (mm). Returns the refined pith; *inlier is the weighted
 // fraction of normals that point at it.
-Vec2 refine(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv, Vec2 c, double* inlier) {
+Vec2 refine(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv, Vec2 c, double* inlier,
+            double edge_factor = kEdgeFactor) {
   const double sx = g.spacing_x, sy = g.spacing_y;
   const int rx = static_cast<int>(std::ceil(kRefineRadiusMm / sx)) + 4;
   const int ry = static_cast<int>(std::ceil(kRefineRadiusMm / sy)) + 4;
@@ -519,7 +523,7 @@ Vec2 refine(const Slice& s, const VolumeGeometry& g, const WoodLevels& lv, Vec2 
                     weight_of(o.coh.at(i, j), a)});
       an.push_back(a);
     }
-  const double cap = kEdgeFactor * median_positive(an);
+  const double cap = edge_factor * median_positive(an);
   for (Px& p : px) p.w = p.aniso > cap ? 0.0 : p.w;
   const double r2max = kRefineRadiusMm * kRefineRadiusMm;
   const double rmin = 4.0;
@@ -586,7 +590,7 @@ double confidence_from(double inlier, double sharpness) {
 }
 
 PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const PithOptions& opt,
-                             Vec2 prior) {
+                             Vec2 prior, double edge_factor = kEdgeFactor) {
   PithResult r;
   const double sr = opt.prior_radius_mm;
   const WoodLevels lv = wood_levels(s, opt);
@@ -604,10 +608,11 @@ PithResult detect_with_prior(const Slice& s, const VolumeGeometry& g, const Pith
     return dx * dx + dy * dy <= vr2;
   };
   double sharp = 0;
-  const Vec2 coarse = vote(s, g, lv, x0, y0, x1 - x0, y1 - y0, prior - Vec2{sr, sr},
-                           prior + Vec2{sr, sr}, 2, 2, kPriorTensorRadius, votes, &sharp);
+  const Vec2 coarse =
+      vote(s, g, lv, x0, y0, x1 - x0, y1 - y0, prior - Vec2{sr, sr}, prior + Vec2{sr, sr}, 2, 2,
+           kPriorTensorRadius, votes, &sharp, nullptr, 0, 0.0, edge_factor);
   double inlier = 0;
-  r.pith_mm = refine(s, g, lv, coarse, &inlier);
+  r.pith_mm = refine(s, g, lv, coarse, &inlier, edge_factor);
   r.confidence = confidence_from(inlier, sharp);
   r.found = true;
   return r;
@@ -642,12 +647,31 @@ std::vector<PithCandidate> candidates_without_prior(const Slice& s, const Volume
                            &sharp, &others, kAcquireCandidates - 1, kAcquireApartMm);
   std::vector<Vec2> seeds{coarse};
   seeds.insert(seeds.end(), others.begin(), others.end());
+  // The vote above keeps strong edges out (knot flanks, cracks, the heartwood border), taking
+  // annual rings to be faint everywhere. Real rings are not: in a pine butt the heartwood's
+  // rings stand 100-250 HU out and the wet sapwood's barely at all, so against the section's
+  // median anisotropy the crisp rings around the pith are edges and do not vote (PIN1B of the
+  // real slices: no candidate within 25 mm of the pith). A second vote lets every edge in; its
+  // peaks join the candidates, and the rings lined up around each (wide_ring_score, and along z
+  // in PithTracker::acquire) decide between them.
+  double sharp_all = 0;
+  std::vector<Vec2> others_all;
+  const Vec2 coarse_all =
+      vote(s, g, lv, x0, y0, x1 - x0, y1 - y0, c - Vec2{0.6 * R, 0.6 * R},
+           c + Vec2{0.6 * R, 0.6 * R}, 4, stride, kCoarseTensorRadius, votes, &sharp_all,
+           &others_all, kAcquireCandidates - 1, kAcquireApartMm, kUncappedEdgeFactor);
+  const size_t capped = seeds.size();
+  seeds.push_back(coarse_all);
+  seeds.insert(seeds.end(), others_all.begin(), others_all.end());
+  const size_t uncapped = seeds.size();
   seeds.push_back(c);
   PithOptions o2 = opt;
   o2.prior_radius_mm = 8.0;
   o2.wood_min_hu = lv.min_hu, o2.wood_max_hu = lv.max_hu;  // the whole slice's, once
   for (size_t k = 0; k < seeds.size(); ++k) {
-    PithResult q = detect_with_prior(s, g, o2, seeds[k]);
+    // The second vote's peaks are voted on again nearby as that vote was, every edge in.
+    PithResult q = detect_with_prior(
+        s, g, o2, seeds[k], k >= capped && k < uncapped ? kUncappedEdgeFactor : kEdgeFactor);
     if (!q.found) {
       if (k > 0) continue;
       double inlier = 0;
@@ -751,10 +775,11 @@ WoodLevels wood_levels(const Slice& s, const PithOptions& options) {
 
 PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 start,
                                   double search_mm, const std::vector<double>* outline,
-                                  double ring_max_mm) {
+                                  double ring_max_mm, double ring_min_mm) {
   PithResult res;
   const double sx = g.spacing_x, sy = g.spacing_y;
-  const double ring_max = std::max(ring_max_mm, 4 * kRingMinMm);
+  const double ring_min = std::max(ring_min_mm, kRingMinMm);
+  const double ring_max = std::max(ring_max_mm, ring_min + 3 * kRingMinMm);
   const double reach = ring_profile_reach_mm(search_mm, ring_max);
   const int x0 = std::max(0, static_cast<int>((start.x - reach) / sx));
   const int y0 = std::max(0, static_cast<int>((start.y - reach) / sy));
@@ -794,7 +819,9 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
       vals.push_back(v);
     }
   if (px.size() < 100) return res;
-  // Knots, the heartwood border and cracks are far from the wood level: leave them out.
+  // Knots, the heartwood border and cracks are far from the wood level: leave them out. (Not
+  // their blurred borders as well: growing the outliers by a pixel also takes the pixels around
+  // the latewood peaks that pass the cut, and biased a phantom's ring pith by 4 mm.)
   const auto [level, spread] = level_and_spread(vals);
   const float cut = static_cast<float>(kRingOutlierSigmas) * spread;
   px.erase(std::remove_if(px.begin(), px.end(),
@@ -802,7 +829,8 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
            px.end());
   if (px.size() < 100) return res;
   // A wide search screens its grid on the pixels near the start alone: those first.
-  const bool screen = search_mm >= kScreenMinSearchMm && ring_max > kScreenRingMm + 4.0;
+  const bool screen = search_mm >= kScreenMinSearchMm && ring_max > kScreenRingMm + 4.0 &&
+                      ring_min + 4.0 < kScreenRingMm;
   const float screen_reach = static_cast<float>(kScreenRingMm + search_mm);
   const size_t n_near =
       screen ? static_cast<size_t>(std::partition(px.begin(), px.end(),
@@ -819,7 +847,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     fx[i] = px[i].x, fy[i] = px[i].y, fv[i] = px[i].v - level;
     fux[i] = px[i].ux, fuy[i] = px[i].uy, fk[i] = px[i].k, fir[i] = px[i].inv_r;
   }
-  const int nb_all = static_cast<int>((ring_max - kRingMinMm) / kRingBinMm) + 1;
+  const int nb_all = static_cast<int>((ring_max - ring_min) / kRingBinMm) + 1;
   constexpr int lh = static_cast<int>(kRingSmoothMm / kRingBinMm);
   // Four interleaved histograms: consecutive pixels fall in the same bin, and one histogram
   // would make every add wait for the previous one. Bin 0 takes the pixels inside the first
@@ -837,7 +865,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   std::vector<double> m(nb_all), nbin(nb_all), sq(nb_all + 2);
   std::vector<std::int32_t> bins(npx);
   const float inv_bin = static_cast<float>(1.0 / kRingBinMm);
-  const float rmin = static_cast<float>(kRingMinMm);
+  const float rmin = static_cast<float>(ring_min);
   constexpr float kRingBinMmF = static_cast<float>(kRingBinMm);
   // Ring-profile energy around start + delta: the mean HU per ring-radius bin, minus its running
   // mean over about a ring width (knots and the density trend are smooth in radius, rings are
@@ -890,7 +918,7 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   // keeps the main peak (about half a ring width across) from being stepped over on fine scans.
   const double grid_mm = std::min(kRingGridMm, 0.6 * std::max(sx, sy));
   const int ns = static_cast<int>(search_mm / grid_mm);
-  const int nb_screen = static_cast<int>((kScreenRingMm - kRingMinMm) / kRingBinMm) + 1;
+  const int nb_screen = std::max(1, static_cast<int>((kScreenRingMm - ring_min) / kRingBinMm) + 1);
   std::vector<std::pair<double, Vec2>> screened;
   for (int j = -ns; j <= ns; ++j)
     for (int i = -ns; i <= ns; ++i) {
@@ -1005,8 +1033,19 @@ double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 
   for (double r : radius) mean += r;
   mean /= static_cast<double>(radius.size());
   const double wide = std::clamp(0.5 * mean, kRingMaxMm, kAcquireRingMaxMm);
-  const PithResult rings = refine_pith_concentric(slice, geometry, centre, 0.0, &radius, wide);
-  return rings.found ? rings.confidence : 0.0;
+  // The median over bands of radius: the pith's rings line up at every radius, a knot's only
+  // out to its own radius, and a single strong step (a knot's rim, the heartwood border) lifts
+  // one band, where over the whole range its energy could outweigh the rings'.
+  const int bands = std::max(2, static_cast<int>(std::ceil((wide - kRingMinMm) / kWideBandMm)));
+  const double width = (wide - kRingMinMm) / bands;
+  std::vector<double> share;
+  for (int b = 0; b < bands; ++b) {
+    const PithResult rings =
+        refine_pith_concentric(slice, geometry, centre, 0.0, &radius, kRingMinMm + (b + 1) * width,
+                               kRingMinMm + b * width);
+    share.push_back(rings.found ? rings.confidence : 0.0);
+  }
+  return median(share);
 }
 
 PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,

@@ -29,6 +29,12 @@ constexpr double kMinAirShare = 0.05, kMinModeShare = 0.005, kMinWoodModeShare =
 // at the nominal calibration the -700 HU the stem pass always used (air -1000, heartwood -500),
 // above the outer bark's edge blurred with air, so logs touching bark to bark stay apart.
 constexpr double kLogShare = 0.6;
+// Wood modes lie above air by more than this share of the way to the dominant wood mode (the
+// log's pixels above it). Not half: a dry core reads far lighter than wet sapwood in real logs
+// (a real pine butt: heartwood -510 HU, sapwood +25, air -900, i.e. 40 % of the way), and at
+// half the heartwood was taken for the air's edge, the log's threshold put above it and the
+// whole core left out of the wood. The air's blurred edge with the bark is no mode.
+constexpr double kWoodModeFloor = 0.25;
 // Two wood modes count as two (a dry core in wet sapwood) when this many noise sigmas apart, or
 // when the histogram between them falls below this share of the smaller one's height: two
 // populations with few pixels between (the border's partial volume), whatever the noise. The
@@ -169,7 +175,7 @@ ScanLevels estimate_levels(const Slice& slice, int samples) {
   }
   out.wood_hu = dom->hu;
   double log_share = 0;
-  const double split = 0.5 * (out.air_hu + dom->hu);
+  const double split = out.air_hu + kWoodModeFloor * (dom->hu - out.air_hu);
   for (float q : v) log_share += q > split;
   log_share /= total;
   out.wood_low_hu = out.wood_high_hu = dom->hu;
@@ -212,15 +218,31 @@ ScanLevels estimate_levels(const Slice& slice, int samples) {
                       valley < kTwoModeValley * std::min(S[low->peak_bin], S[high->peak_bin]));
   if (!out.two_wood_modes) out.wood_low_hu = out.wood_high_hu = out.wood_hu;
   out.log_hu = out.air_hu + kLogShare * (out.wood_low_hu - out.air_hu);
-  out.dense_hu = out.wood_high_hu +
-                 std::max(kDenseShare * (out.wood_high_hu - out.air_hu), kDenseSigmas * sigma);
+  // A dried log's own texture above its wood mode: latewood bands (a real dried disc: earlywood
+  // -700 HU, latewood -300 around a -585 HU mode), which a pixel's noise does not show. Water
+  // evens a green log's earlywood out towards its latewood; dried, the bands keep their whole
+  // density contrast, and at the green log's margin the latewood and the bark read as the bed,
+  // so that no outline closed. The one-sided robust spread of the samples above the mode (the
+  // bed and knots are few of them); green logs keep their margin, which keeps the bed out.
+  out.dried = !out.two_wood_modes && out.wood_high_hu - out.air_hu < kDriedBelowHu;
+  if (out.dried) {
+    std::vector<float> up;
+    for (float q : v)
+      if (q > out.wood_high_hu) up.push_back(q - static_cast<float>(out.wood_high_hu));
+    out.texture_wood_hu = up.size() >= 16 ? 1.4826 * median_inplace(up) : 0.0;
+  }
+  // Dense: beyond the wood's noise and a dried log's texture.
+  const double dense_sigma = std::max(sigma, out.texture_wood_hu);
+  out.dense_hu = out.wood_high_hu + std::max(kDenseShare * (out.wood_high_hu - out.air_hu),
+                                             kDenseSigmas * dense_sigma);
+  // The median of a few samples averages the noise down, not a band of latewood.
   out.dense_median_hu =
       out.wood_high_hu + std::max(kDenseShare * (out.wood_high_hu - out.air_hu),
-                                  kDenseSigmas * sigma / std::sqrt(kDenseMedianSamples));
+                                  kDenseSigmas * std::max(sigma / std::sqrt(kDenseMedianSamples),
+                                                          out.texture_wood_hu));
   // A clipped air says nothing of the calibration.
   out.shift_hu = out.air_clipped ? 0.0 : out.air_hu + 1000.0;
   out.wood_over_air_hu = out.wood_hu - out.air_hu;
-  out.dried = !out.two_wood_modes && out.wood_high_hu - out.air_hu < kDriedBelowHu;
   double in_log = 0;
   for (float q : v) in_log += q > out.log_hu && q < out.dense_hu;
   out.fraction_log = in_log / total;
@@ -269,6 +291,7 @@ ScanLevels pool_levels(const std::vector<ScanLevels>& slices) {
   out.wood_high_hu = med(&ScanLevels::wood_high_hu);
   out.noise_air_hu = med(&ScanLevels::noise_air_hu);
   out.noise_wood_hu = med(&ScanLevels::noise_wood_hu);
+  out.texture_wood_hu = med(&ScanLevels::texture_wood_hu);
   out.log_hu = med(&ScanLevels::log_hu);
   out.dense_hu = med(&ScanLevels::dense_hu);
   out.dense_median_hu = med(&ScanLevels::dense_median_hu);

@@ -45,6 +45,12 @@
 //   eccentricity    the pith sits 1–5 % (±20 % along the log) of the radius off the outline's
 //                   centre (compression wood side), direction turning by up to ±0.5 rad
 //   pith wander     1–4 mm, a sum of three waves of 0.5–3 m wavelength
+//   (asked)         with GeneratorOptions::eccentricity_max ≥ 0 the two above give way to the
+//                   asked eccentricity: within [min, max] (real piths sit 0–25 % off: wind,
+//                   compression wood; Lapland pines average 12 %), changing by
+//                   eccentricity_change along the log (a wave of 1.5–6 m wavelength stretched
+//                   to span exactly that over the log), direction turning by up to
+//                   ±eccentricity_turn_rad; drawn from a stream of its own
 //   heartwood       pine: 45–65 % of the radius at the stump, falling 0.8–1.5 % per metre of
 //                   height (Scots pine heartwood); spruce: a dry core inside a wet sapwood band
 //                   20–40 mm wide (spruce has no coloured heartwood, but CT sees the dry zone);
@@ -150,6 +156,7 @@ constexpr double kEccentricity[2] = {0.01, 0.05};             // share of the ra
 constexpr double kEccentricityVariation = 0.2;                // ± share along the log
 constexpr double kEccentricityTurn = 0.5;                     // rad over the log, at most
 constexpr double kPithWander[2] = {1.0, 4.0};                 // mm
+constexpr double kMaxEccentricityOption = 0.4;                // share of the radius
 constexpr double kPithWanderWavelength[2] = {500.0, 3000.0};  // mm
 constexpr double kStumpHeight = 0.3;                          // m
 constexpr double kMiddleLogStart[2] = {4.0, 5.8};             // m above ground
@@ -290,7 +297,8 @@ enum Stream : std::uint64_t {
   kStreamShape,
   kStreamWhorls,
   kStreamKnots,
-  kStreamWood
+  kStreamWood,
+  kStreamEccentricity  // only for an asked eccentricity (the default log never draws from it)
 };
 
 // ---- Helpers -----------------------------------------------------------------------------------
@@ -464,6 +472,12 @@ struct StemShape {
   Wave ecc_wave;
   double wander = 0;
   Wave wander_x, wander_y;
+  // An asked eccentricity (GeneratorOptions::eccentricity_max >= 0) replaces the two above.
+  bool asked = false;
+  double asked_lo = 0, asked_hi = 0;  // the log's stretch of the asked range, share of r0
+  double asked_angle = 0, asked_turn = 0;
+  Wave asked_wave;
+  double asked_wave_lo = -1, asked_wave_hi = 1;  // the wave's extremes over the log
 
   static StemShape draw(const LogPlan& p, std::uint64_t key) {
     Rng rng(key, kStreamShape);
@@ -505,6 +519,27 @@ struct StemShape {
     s.wander_x = Wave::draw(rng, kPithWanderWavelength[0], kPithWanderWavelength[1]);
     s.wander_y = Wave::draw(rng, kPithWanderWavelength[0], kPithWanderWavelength[1]);
     return s;
+  }
+
+  // The asked eccentricity: its own stream, so nothing else of the log changes.
+  void ask_eccentricity(const GeneratorOptions& o, std::uint64_t key) {
+    Rng rng(key, kStreamEccentricity);
+    asked = true;
+    const double change = std::min(o.eccentricity_change, o.eccentricity_max - o.eccentricity_min);
+    asked_lo =
+        o.eccentricity_min + rng.uniform() * (o.eccentricity_max - o.eccentricity_min - change);
+    asked_hi = asked_lo + change;
+    asked_angle = rng.angle();
+    asked_turn = rng.uniform(-o.eccentricity_turn_rad, o.eccentricity_turn_rad);
+    asked_wave = Wave::draw(rng, 1500.0, 6000.0);
+    // Stretched so that the eccentricity spans [asked_lo, asked_hi] over the log exactly (at
+    // the stem's sample heights), whatever part of the wave the log holds.
+    asked_wave_lo = 1, asked_wave_hi = -1;
+    for (int i = 0; i < plan->n; ++i) {
+      const double w = asked_wave.at((i + 0.5) * plan->dz);
+      asked_wave_lo = std::min(asked_wave_lo, w);
+      asked_wave_hi = std::max(asked_wave_hi, w);
+    }
   }
 
   double flare_weight(double z) const {
@@ -557,9 +592,16 @@ struct StemShape {
     const double bow = sweep * sweep_norm * bow_shape(t);
     return (z - 0.5 * L) * tilt + bow * Vec2{std::cos(sweep_angle), std::sin(sweep_angle)};
   }
-  // Pith offset from the centre line: eccentricity plus wander.
+  // Pith offset from the centre line: eccentricity plus wander, or the asked eccentricity.
   Vec2 pith_offset(double z, double r0) const {
     const double t = z / plan->length;
+    if (asked) {
+      const double span = asked_wave_hi - asked_wave_lo;
+      const double u = span > 1e-12 ? (asked_wave.at(z) - asked_wave_lo) / span : 0.5;
+      const double e = (asked_lo + (asked_hi - asked_lo) * std::clamp(u, 0.0, 1.0)) * r0;
+      const double a = asked_angle + asked_turn * (t - 0.5);
+      return Vec2{e * std::cos(a), e * std::sin(a)};
+    }
     const double e = ecc * (1.0 + kEccentricityVariation * ecc_wave.at(z)) * r0;
     const double a = ecc_angle + ecc_turn * (t - 0.5);
     return Vec2{e * std::cos(a), e * std::sin(a)} + wander * Vec2{wander_x.at(z), wander_y.at(z)};
@@ -568,11 +610,12 @@ struct StemShape {
 
 // Radii from the pith p along the unit directions (ux[k], uy[k]) to the outline: solves
 // |p + t·u| = ρ(θ) with θ the direction of p + t·u from the centre. Starts from the circle ρ = r0
-// and iterates on θ; three steps agree with twelve to well under the 0.01 mm output rounding.
+// and iterates on θ; three steps agree with twelve to well under the 0.01 mm output rounding
+// for the drawn eccentricity (≤ 6 %). The error shrinks about as fast as the eccentricity
+// times the outline's own slope, so an asked eccentricity of up to 40 % takes six.
 // (Steps outside, angles inside: the inner loop has independent iterations and vectorises.)
 void radii_from_pith(const Section& sec, Vec2 p, const std::vector<double>& ux,
-                     const std::vector<double>& uy, std::vector<double>& t) {
-  constexpr int kSteps = 3;
+                     const std::vector<double>& uy, std::vector<double>& t, int steps) {
   const size_t n = ux.size();
   t.resize(n);
   std::vector<double> q(n), pu(n);
@@ -581,7 +624,7 @@ void radii_from_pith(const Section& sec, Vec2 p, const std::vector<double>& ux,
     q[k] = pu[k] * pu[k] - (p.x * p.x + p.y * p.y);
     t[k] = -pu[k] + std::sqrt(std::max(0.0, q[k] + sec.r0 * sec.r0));
   }
-  for (int it = 0; it < kSteps; ++it)
+  for (int it = 0; it < steps; ++it)
     for (size_t k = 0; k < n; ++k) {
       const double x = p.x + t[k] * ux[k], y = p.y + t[k] * uy[k];
       const double inv = 1.0 / std::sqrt(x * x + y * y);
@@ -647,7 +690,7 @@ Stem build_stem(const LogPlan& p, const StemShape& shape, const WoodShape& wood,
     const Vec2 pith = shape.centre(z) + off;
     s.pith.push_back({round_decimals<2>(pith.x), round_decimals<2>(pith.y)});
     std::vector<double> row;
-    radii_from_pith(sec, off, cos_w, sin_w, row);
+    radii_from_pith(sec, off, cos_w, sin_w, row, shape.asked ? 6 : 3);
     double mean = 0;
     for (double r : row) mean += r / na;
     for (double& r : row) r = round_decimals<2>(r);
@@ -966,8 +1009,15 @@ std::string describe(const GeneratorOptions& o, const LogPlan& p) {
   if (o.length_mm > 0) os << " --length-m " << o.length_mm * 1e-3;
   if (o.top_diameter_mm > 0) os << " --top-diameter-mm " << o.top_diameter_mm;
   if (o.position != LogPosition::kDrawn) os << " --position " << log_position_name(o.position);
-  os << ", generator v" << kGeneratorVersion << ", " << position_label(p.position);
   const GeneratorOptions d;
+  if (o.eccentricity_max >= 0) {
+    os << " --eccentricity " << o.eccentricity_min << "," << o.eccentricity_max;
+    if (o.eccentricity_change != d.eccentricity_change)
+      os << " --eccentricity-change " << o.eccentricity_change;
+    if (o.eccentricity_turn_rad != d.eccentricity_turn_rad)
+      os << " --eccentricity-turn-rad " << o.eccentricity_turn_rad;
+  }
+  os << ", generator v" << kGeneratorVersion << ", " << position_label(p.position);
   if (o.dz_mm != d.dz_mm) os << ", dz_mm " << o.dz_mm;
   if (o.n_angles != d.n_angles) os << ", n_angles " << o.n_angles;
   if (!o.heartwood) os << ", no heartwood";
@@ -1007,6 +1057,24 @@ Status GeneratorOptions::validate() const {
   if (n_angles < kMinAngles || n_angles > kMaxAngles)
     return Error("n_angles", "must be within " + std::to_string(kMinAngles) + ".." +
                                  std::to_string(kMaxAngles) + ", got " + std::to_string(n_angles));
+  if (eccentricity_max >= 0) {
+    const std::string range = "0.." + num(kMaxEccentricityOption);
+    if (!(eccentricity_max <= kMaxEccentricityOption))
+      return Error("eccentricity_max", "must be within " + range + " (share of the radius), got " +
+                                           num(eccentricity_max));
+    if (!(eccentricity_min >= 0 && eccentricity_min <= eccentricity_max))
+      return Error("eccentricity_min", "must be within 0 and the maximum " + num(eccentricity_max) +
+                                           " (share of the radius), got " + num(eccentricity_min));
+    if (!(eccentricity_change >= 0 && eccentricity_change <= kMaxEccentricityOption))
+      return Error(
+          "eccentricity_change",
+          "must be within " + range + " (share of the radius), got " + num(eccentricity_change));
+    if (!(eccentricity_turn_rad >= 0 && eccentricity_turn_rad <= kPi))
+      return Error("eccentricity_turn_rad",
+                   "must be within 0..pi, got " + num(eccentricity_turn_rad));
+  } else if (!(eccentricity_max < 0)) {  // NaN
+    return Error("eccentricity_max", "must be a number");
+  }
   const double longest = length_mm > 0 ? length_mm : kMaxLength;
   if (longest / dz_mm * n_angles > kMaxStemSamples)
     return Error("dz_mm, n_angles", "give more than " + num(kMaxStemSamples) +
@@ -1021,7 +1089,8 @@ Result<LogModel> generate_log(const GeneratorOptions& options) {
   std::uint64_t mix = options.seed ^ (options.species == Species::kPine ? 0x5049u : 0x5350u);
   const std::uint64_t key = splitmix64(mix);
   const LogPlan plan = plan_log(options, key);
-  const StemShape shape = StemShape::draw(plan, key);
+  StemShape shape = StemShape::draw(plan, key);
+  if (options.eccentricity_max >= 0) shape.ask_eccentricity(options, key);
   const WoodShape wood = WoodShape::draw(key);
   LogModel log;
   log.id = std::string(species_name(options.species)) + "_s" + std::to_string(options.seed);

@@ -243,17 +243,23 @@ Result<Knot> parse_knot(const Json& j, size_t index) {
   return k;
 }
 
-// "scanner_frame": {"origin_mm": [x, y, z], "row_dir": [..], "col_dir": [..], "z0_mm": z,
-// "z_dir": 1}; the values are range-checked by validate().
+// "scanner_frame": {"origin_mm": [x, y, z], "row_dir": [..], "col_dir": [..], "slice_dir": [..],
+// "z0_mm": z, "z_dir": 1}; slice_dir is written for coronal and sagittal scans only, so that an
+// axial scan's file stays as it was before the key existed; absent, it reads as (0, 0, z_dir).
+// The values are range-checked by validate().
 Result<ScannerFrame> parse_scanner_frame(const Json& j) {
   const std::string p = "scanner_frame.";
   if (!j.is_object())
     return Error("scanner_frame", std::string("expected an object, got ") + type_name(j));
   ScannerFrame f;
+  bool has_slice_dir = false;
   for (auto [key, dst] : {std::pair{"origin_mm", &f.origin_mm}, std::pair{"row_dir", &f.row_dir},
-                          std::pair{"col_dir", &f.col_dir}}) {
-    Result<const Json*> m = member(j, p, key);
+                          std::pair{"col_dir", &f.col_dir}, std::pair{"slice_dir", &f.slice_dir}}) {
+    const bool optional = dst == &f.slice_dir;
+    Result<const Json*> m = member(j, p, key, !optional);
     if (!m) return m.error();
+    if (m.value() == nullptr) continue;
+    has_slice_dir = has_slice_dir || optional;
     Result<std::vector<double>> v = number_list(*m.value(), p + key);
     if (!v) return v.error();
     if (v.value().size() != 3)
@@ -266,6 +272,7 @@ Result<ScannerFrame> parse_scanner_frame(const Json& j) {
   Result<double> zd = number_at(j, p, "z_dir");
   if (!zd) return zd.error();
   f.z_dir = zd.value();
+  if (!has_slice_dir) f.slice_dir = {0, 0, f.z_dir < 0 ? -1.0 : 1.0};  // z_dir checked later
   return f;
 }
 
@@ -373,6 +380,7 @@ Json frame_to_json(const ScannerFrame& f) {
   fj["origin_mm"] = {f.origin_mm.x, f.origin_mm.y, f.origin_mm.z};
   fj["row_dir"] = {f.row_dir.x, f.row_dir.y, f.row_dir.z};
   fj["col_dir"] = {f.col_dir.x, f.col_dir.y, f.col_dir.z};
+  if (!f.axial()) fj["slice_dir"] = {f.slice_dir.x, f.slice_dir.y, f.slice_dir.z};
   fj["z0_mm"] = f.z0_mm;
   fj["z_dir"] = f.z_dir;
   return fj;
@@ -659,7 +667,10 @@ Status validate_knot(const Knot& k, const std::string& w) {
 
 // The frame's origin lies where heights may (the scanner's origin is metres from the log at
 // most); its directions are unit vectors at right angles, as a CT file's direction cosines are
-// (to the 1e-3 scanners round them to), and z_dir is a sign.
+// (to the 1e-3 scanners round them to), and z_dir is a sign. For a coronal or sagittal frame it
+// is slice_dir's sign along the scanner axis slice_dir runs along: the two say the same, and a
+// file that disagrees with itself is refused rather than one of them believed (an axial frame's
+// z is z_dir alone; its slice_dir is not written).
 Status validate_frame(const ScannerFrame& f) {
   const std::string w = "scanner_frame.";
   for (double v : {f.origin_mm.x, f.origin_mm.y, f.origin_mm.z})
@@ -667,15 +678,24 @@ Status validate_frame(const ScannerFrame& f) {
       return st;
   if (Status st = check_range(f.z0_mm, w + "z0_mm", -lim::kMaxAbsZMm, lim::kMaxAbsZMm, "mm"); !st)
     return st;
-  for (auto [key, d] : {std::pair{"row_dir", f.row_dir}, std::pair{"col_dir", f.col_dir}}) {
+  for (auto [key, d] : {std::pair{"row_dir", f.row_dir}, std::pair{"col_dir", f.col_dir},
+                        std::pair{"slice_dir", f.slice_dir}}) {
     if (!std::isfinite(d.norm()) || std::abs(d.norm() - 1) > 1e-3)
       return Error(w + key,
                    "(" + num(d.x) + ", " + num(d.y) + ", " + num(d.z) + ") is not a unit vector");
   }
   if (std::abs(dot(f.row_dir, f.col_dir)) > 1e-3)
     return Error(w + "col_dir", "is not perpendicular to row_dir");
+  if (std::abs(dot(f.slice_dir, f.row_dir)) > 1e-3 || std::abs(dot(f.slice_dir, f.col_dir)) > 1e-3)
+    return Error(w + "slice_dir", "is not perpendicular to row_dir and col_dir");
   if (f.z_dir != 1.0 && f.z_dir != -1.0)
     return Error(w + "z_dir", num(f.z_dir) + " must be 1 or -1");
+  const double along = f.slice_axis() == 0   ? f.slice_dir.x
+                       : f.slice_axis() == 1 ? f.slice_dir.y
+                                             : f.slice_dir.z;
+  if (!f.axial() && along * f.z_dir < 0)
+    return Error(w + "z_dir", num(f.z_dir) + " points against slice_dir (" + num(f.slice_dir.x) +
+                                  ", " + num(f.slice_dir.y) + ", " + num(f.slice_dir.z) + ")");
   return Status::Ok();
 }
 

@@ -249,7 +249,9 @@ Stem resample_stem(const Stem& stem, double max_step_mm) {
 }
 
 void place_in_scanner_frame(LogModel& log, const Vec2& pixel0, const ScannerFrame& frame) {
-  for (Vec2& p : log.stem.pith) p = p + pixel0;
+  // A coronal or sagittal model stays in the slices' axes: its frame maps every point back.
+  if (frame.axial())
+    for (Vec2& p : log.stem.pith) p = p + pixel0;
   log.scanner_frame = frame;
 }
 

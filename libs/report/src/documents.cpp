@@ -57,6 +57,50 @@ std::string board_size(const BoardRecord& b) {
   return fmt2("%.0f × %.0f", b.thickness_mm, b.width_mm);
 }
 
+// The log's rows and its scan's QA verdict, for a log that was not sawn (no sawing column).
+Rows not_sawn_log_rows(const Content& c) {
+  Rows rows = log_rows(c);
+  const auto& qa = c.run->log.qa;
+  std::string verdict = !qa           ? kNone
+                        : qa->trusted ? std::string("passed (QA images in scan/qa/)")
+                                      : std::string("FAILED: the figures are not to be trusted");
+  if (qa && !qa->trusted)
+    for (const std::string& w : qa->warnings) verdict += "; " + w;
+  rows.push_back({"Scan QA", verdict});
+  return rows;
+}
+
+// Why a log was not sawn, in plain words: the first line the diameters (or run.json's reason
+// when they are not known), then what the engineer can do about it.
+std::vector<std::string> not_sawn_text(const RunFolder& r) {
+  const NotSawn& ns = *r.run.not_sawn;
+  std::vector<std::string> t;
+  const std::string pattern = "pattern '" + or_none(ns.pattern) + "'";
+  if (ns.needed_diameter_mm >= 0 && ns.usable_diameter_mm >= 0)
+    t.push_back("The log was scanned but not sawn: " + pattern + " needs a log at least " +
+                fmt("%.1f mm", ns.needed_diameter_mm) +
+                " across, and this log's usable "
+                "diameter is " +
+                fmt("%.1f mm", ns.usable_diameter_mm) +
+                " (the largest circle "
+                "about the pith line inside its top end, under bark): " +
+                fmt("%.1f mm", ns.needed_diameter_mm - ns.usable_diameter_mm) + " short.");
+  else
+    t.push_back("The log was scanned but not sawn: " + or_none(ns.reason) + ".");
+  t.push_back(
+      "The scan is complete and kept in scan/ (log.json, the maps and the QA images). "
+      "To saw this log, choose a pattern for smaller logs (a through-and-through "
+      "pattern, tt, edges every board to the log and fits any log): `sawyer saw "
+      "scan/log.json -o sawing.json --pattern P` saws the scanned model without "
+      "scanning again; `sawyer run --pattern P` scans and saws it again.");
+  if (r.log.qa && !r.log.qa->trusted)
+    t.push_back(
+        "The scan's QA verdict failed: the log's outline or pith, and so its usable "
+        "diameter, may be wrong; check the QA images in scan/qa/ before setting the log "
+        "aside.");
+  return t;
+}
+
 // ---------------------------------------------------------------------------------------------
 // PDF
 
@@ -106,8 +150,10 @@ class PdfWriter {
       set_font(cr_, 8.5, true);
       set_color(cr_, kWarn);
       draw_text(cr_,
-                "NOT TO BE TRUSTED: the scan's QA verdict failed; the position below rests "
-                "on an uncertain model",
+                c_.run->sawn() ? "NOT TO BE TRUSTED: the scan's QA verdict failed; the position "
+                                 "below rests on an uncertain model"
+                               : "NOT TO BE TRUSTED: the scan's QA verdict failed; the log's "
+                                 "figures below rest on an uncertain model",
                 kMargin, y_ - 6);
       y_ += 13;
       if (page_ == 1) {
@@ -468,16 +514,22 @@ class PdfWriter {
     figure(*f, kContentW);
   }
 
+  // The run's stages and their times, one line: "scan 3.70 s, saw 0.23 s, ...".
+  std::string stages_text() const {
+    std::string stages;
+    for (const RunInfo::Stage& st : c_.run->run.stages)
+      stages += (stages.empty() ? "" : ", ") + st.name +
+                (st.seconds >= 0 ? fmt(" %.2f s", st.seconds) : std::string());
+    return stages;
+  }
+
   void page_three() {
     figure_section("Positioning: expected value over rotation and offset",
                    c_.figure("value_map.png"));
     figure_section("The log along its length", c_.figure("log_profile.png"));
     heading("Notes");
     set_color(cr_, kMuted);
-    std::string stages;
-    for (const RunInfo::Stage& st : c_.run->run.stages)
-      stages += (stages.empty() ? "" : ", ") + st.name +
-                (st.seconds >= 0 ? fmt(" %.2f s", st.seconds) : std::string());
+    const std::string stages = stages_text();
     const std::string notes[] = {
         c_.boards.note + ".",
         "Scan source: " + or_none(c_.run->run.scan_source) +
@@ -488,6 +540,58 @@ class PdfWriter {
             "'; expected values average over the positioning error of "
             "the saw line. Grades follow rule set '" +
             c_.run->sawing.grading + "'."};
+    for (const std::string& n : notes) {
+      need(24);
+      y_ += wrap(n, kMargin, y_ + 2, kContentW, 8, 10.5) + 4;
+    }
+    footer();
+  }
+
+  // The one page of a log that was not sawn: why, the diameters, the log's figures, its top
+  // end with both circles and its profile, and the notes.
+  void not_sawn_pages() {
+    const NotSawn& ns = *c_.run->run.not_sawn;
+    header();
+    set_font(cr_, 16, true);
+    set_color(cr_, kWarn);
+    draw_text(cr_, "NOT SAWN", kMargin, y_ + 4);
+    y_ += 22;
+    const std::vector<std::string> text = not_sawn_text(*c_.run);
+    set_color(cr_, kInk);
+    y_ += wrap(text[0], kMargin, y_, kContentW, 10, 13) + 8;
+    const double tw = (kContentW - 3 * 8) / 4;
+    auto mm = [](double v) { return v >= 0 ? fmt("%.1f mm", v) : kNone; };
+    tile(kMargin, y_, tw, mm(ns.needed_diameter_mm), "diameter the pattern needs");
+    tile(kMargin + tw + 8, y_, tw, mm(ns.usable_diameter_mm), "usable diameter of the log");
+    tile(kMargin + 2 * (tw + 8), y_, tw, fmt("%.2f m", c_.summary.length_mm * 1e-3), "length");
+    tile(kMargin + 3 * (tw + 8), y_, tw, fmt("%.3f m³", c_.summary.volume_m3), "volume");
+    y_ += 62;
+    const double col = (kContentW - 20) / 2;
+    set_font(cr_, 12, true);
+    set_color(cr_, kAccent);
+    draw_text(cr_, "The log", kMargin, y_);
+    draw_text(cr_, "The top end", kMargin + col + 20, y_);
+    y_ += 16;
+    const double y0 = y_;
+    const double h1 = rows(not_sawn_log_rows(c_), kMargin, y_, col, 92);
+    double h2 = 0;
+    if (const Figure* f = c_.figure("top_end.png")) {
+      h2 = image(f->surface.get(), kMargin + col + 20, y0, col) + 6;
+      set_color(cr_, kMuted);
+      h2 += wrap(f->caption, kMargin + col + 20, y0 + h2 + 6, col, 7.5, 9.5) + 6;
+    }
+    y_ = y0 + std::max(h1, h2) + 6;
+    figure_section("The log along its length", c_.figure("log_profile.png"));
+    heading("Notes");
+    set_color(cr_, kMuted);
+    const std::string stages = stages_text();
+    std::vector<std::string> notes(text.begin() + 1, text.end());
+    notes.push_back("Sawyer: " + or_none(ns.reason) + ".");
+    notes.push_back(
+        "Pattern " + or_none(c_.run->run.pattern) + ", grading " + or_none(c_.run->run.grading) +
+        ". Scan source: " + or_none(c_.run->run.scan_source) +
+        (c_.run->run.scan_checksum.empty() ? "" : " (" + c_.run->run.scan_checksum + ")") +
+        ". Run stages: " + or_none(stages) + ".");
     for (const std::string& n : notes) {
       need(24);
       y_ += wrap(n, kMargin, y_ + 2, kContentW, 8, 10.5) + 4;
@@ -708,10 +812,14 @@ Status write_pdf(const Content& c, const std::filesystem::path& path, int* pages
   {
     ContextPtr cr = new_context(pdf.get());
     PdfWriter w(c, cr.get());
-    w.page_one();
-    w.page_two();
-    w.page_decisions();
-    w.page_three();
+    if (!c.run->sawn()) {
+      w.not_sawn_pages();
+    } else {
+      w.page_one();
+      w.page_two();
+      w.page_decisions();
+      w.page_three();
+    }
     *pages = w.pages();
     if (cairo_status(cr.get()) != CAIRO_STATUS_SUCCESS)
       return Error(path.string(), cairo_status_to_string(cairo_status(cr.get())));
@@ -764,9 +872,41 @@ std::string report_html(const Content& c) {
     h << "<div class=\"meta\"><b>Scan: " << html_escape(n) << "</b></div>\n";
   if (const auto& qa = r.log.qa; qa && !qa->trusted) {
     h << "<div class=\"qa-failed\" style=\"color:#bf1a14;font-weight:bold;margin:8px 0\">NOT TO BE "
-         "TRUSTED: the scan's QA verdict failed; the position rests on an uncertain model";
+         "TRUSTED: the scan's QA verdict failed; "
+      << (r.sawn() ? "the position rests on an uncertain model"
+                   : "the log's figures rest on an uncertain model");
     for (const std::string& w : qa->warnings) h << "<br>QA: " << html_escape(w);
     h << "</div>\n";
+  }
+  if (!r.sawn()) {
+    // A log that was not sawn: why, the diameters, the log, its top end and profile.
+    const NotSawn& ns = *r.run.not_sawn;
+    const std::vector<std::string> text = not_sawn_text(r);
+    auto mm = [](double v) { return v >= 0 ? fmt("%.1f mm", v) : kNone; };
+    h << "<h2 class=\"not-sawn\" style=\"color:#bf1a14\">NOT SAWN</h2><p><b>"
+      << html_escape(text[0]) << "</b></p>\n<div class=\"tiles\" style=\"grid-template-columns:"
+      << "repeat(4,1fr)\">";
+    auto tile = [&](const std::string& v, const std::string& l) {
+      h << "<div class=\"tile\"><b>" << html_escape(v) << "</b><small>" << html_escape(l)
+        << "</small></div>";
+    };
+    tile(mm(ns.needed_diameter_mm), "diameter the pattern needs");
+    tile(mm(ns.usable_diameter_mm), "usable diameter of the log");
+    tile(fmt("%.2f m", c.summary.length_mm * 1e-3), "length");
+    tile(fmt("%.3f m³", c.summary.volume_m3), "volume");
+    h << "</div>\n<div class=\"cols\"><div><h2>The log</h2>" << html_rows(not_sawn_log_rows(c))
+      << "</div><div><h2>The top end</h2>";
+    if (const Figure* f = c.figure("top_end.png")) h << html_figure(*f);
+    h << "</div></div>\n<h2>The log along its length</h2>";
+    if (const Figure* f = c.figure("log_profile.png")) h << html_figure(*f);
+    h << "<h2>Notes</h2>";
+    for (size_t i = 1; i < text.size(); ++i) h << "<p>" << html_escape(text[i]) << "</p>";
+    h << "<p class=\"meta\">Sawyer: " << html_escape(or_none(ns.reason)) << ".</p>\n"
+      << "<footer>Pattern " << html_escape(or_none(r.run.pattern)) << ", grading "
+      << html_escape(or_none(r.run.grading))
+      << ". Scan source: " << html_escape(or_none(r.run.scan_source))
+      << ".</footer>\n</main>\n</body></html>\n";
+    return h.str();
   }
   h << "<div class=\"cols\"><div><h2>The log</h2>" << html_rows(log_rows(c))
     << "</div><div><h2>The sawing</h2>" << html_rows(position_rows(c)) << "</div></div>\n";
@@ -883,6 +1023,29 @@ std::string report_json(const Content& c, const ReportFiles& files) {
               {"scan_checksum", r.run.scan_checksum},
               {"date", r.run.date},
               {"sawyer_version", r.run.sawyer_version}};
+  // A log that was not sawn: why, and no position or boards (boards.csv has its header only).
+  if (!r.sawn()) {
+    const NotSawn& ns = *r.run.not_sawn;
+    j["outcome"] = "not sawn";
+    j["not_sawn"] = {{"reason", ns.reason},
+                     {"pattern", ns.pattern},
+                     {"needed_diameter_mm", ns.needed_diameter_mm},
+                     {"usable_diameter_mm", ns.usable_diameter_mm}};
+    if (r.log.qa) j["qa_trusted"] = r.log.qa->trusted;
+    j["sawing"] = {{"pattern", r.run.pattern}, {"grading", r.run.grading}};
+    j["boards"] = Json::array();
+    j["totals"] = {{"boards", 0},
+                   {"volume_m3", 0.0},
+                   {"value", 0.0},
+                   {"log_volume_m3", m.volume_m3},
+                   {"volume_yield", 0.0}};
+    Json images = Json::array();
+    for (const auto& p : files.images) images.push_back("images/" + p.filename().string());
+    j["images"] = images;
+    j["pages"] = files.pages;
+    return j.dump(1) + "\n";
+  }
+  j["outcome"] = "sawn";
   j["sawing"] = {{"pattern", s.pattern},
                  {"grading", s.grading},
                  {"prices", s.prices},

@@ -532,4 +532,111 @@ SurfacePtr log_profile(const LogModel& log, const BoardSet& boards, int w) {
   return surf;
 }
 
+SurfacePtr top_end_fit(const LogModel& log, const NotSawn& why, const sawing::Pattern* pattern,
+                       int px) {
+  SurfacePtr surf = new_raster(px, px);
+  ContextPtr ctx = new_context(surf.get());
+  cairo_t* cr = ctx.get();
+  const Stem& st = log.stem;
+  const int n = st.slice_count();
+  if (n < 1 || st.radius.empty()) return surf;
+  // The top end as SawLog takes it: the end with the smaller mean radius.
+  const int top = st.mean_radius(n - 1) <= st.mean_radius(0) ? n - 1 : 0;
+  const std::vector<double>& rad = st.radius[top];
+  const Vec2 pith = st.pith[top];
+  // The circles' centre: the mean pith line at the top end (SawLog::line_at), which the
+  // pattern's centre follows.
+  const sawing::SawLog saw_log(log, 0);
+  const Vec2 c = saw_log.line_at(st.z_at(top));
+  // As run.json states them; from the model and pattern when it does not.
+  const double usable =
+      why.usable_diameter_mm >= 0 ? why.usable_diameter_mm : saw_log.usable_diameter_mm();
+  const double needed = why.needed_diameter_mm >= 0 ? why.needed_diameter_mm
+                        : pattern                   ? pattern->required_diameter_mm()
+                                                    : 0.0;
+  const double need_r = 0.5 * needed, use_r = std::max(0.0, 0.5 * usable);
+  double reach = std::max(need_r, use_r);
+  for (size_t k = 0; k < rad.size(); ++k) {
+    const double w = 2 * kPi * k / rad.size();
+    reach = std::max(reach, std::hypot(pith.x + rad[k] * std::cos(w) - c.x,
+                                       pith.y + rad[k] * std::sin(w) - c.y));
+  }
+  if (pattern)
+    for (const sawing::BoardSpec& b : pattern->boards)
+      reach =
+          std::max(reach, std::hypot(std::abs(b.u_mm) + 0.5 * std::max(b.thickness_mm, b.width_mm),
+                                     std::abs(b.v_mm)));
+  const double margin = 40, legend = 96;
+  const double k = (px - 2 * margin - legend) / (2 * std::max(reach, 1.0));
+  const double cx = px / 2.0, cy = (px - legend) / 2.0;
+  // Scanner x to the right, y up.
+  auto to_px = [&](double x, double y) {
+    return std::pair<double, double>{cx + (x - c.x) * k, cy - (y - c.y) * k};
+  };
+  // The outline under bark, filled as wood.
+  for (size_t i = 0; i < rad.size(); ++i) {
+    const double w = 2 * kPi * i / rad.size();
+    const auto [x, y] = to_px(pith.x + rad[i] * std::cos(w), pith.y + rad[i] * std::sin(w));
+    if (i == 0)
+      cairo_move_to(cr, x, y);
+    else
+      cairo_line_to(cr, x, y);
+  }
+  cairo_close_path(cr);
+  set_color(cr, {0.91, 0.84, 0.70});
+  cairo_fill_preserve(cr);
+  set_color(cr, kInk);
+  cairo_set_line_width(cr, 2);
+  cairo_stroke(cr);
+  // The pattern's boards, at rotation 0 about the centre (u along x, v along y).
+  if (pattern) {
+    cairo_set_line_width(cr, 1.5);
+    for (const sawing::BoardSpec& b : pattern->boards) {
+      const bool along_u = b.thickness_axis == sawing::ThicknessAxis::kU;
+      const double hu = 0.5 * (along_u ? b.thickness_mm : b.width_mm);
+      const double hv = 0.5 * (along_u ? b.width_mm : b.thickness_mm);
+      const auto [x0, y0] = to_px(c.x + b.u_mm - hu, c.y + b.v_mm + hv);
+      cairo_rectangle(cr, x0, y0, 2 * hu * k, 2 * hv * k);
+      set_color(cr, kBoardLine, b.edged ? 0.08 : 0.18);
+      cairo_fill_preserve(cr);
+      set_color(cr, kBoardLine);
+      cairo_stroke(cr);
+    }
+  }
+  const auto [ox, oy] = to_px(c.x, c.y);
+  // The usable circle, then the one the pattern needs (dashed, over it).
+  cairo_set_line_width(cr, 3);
+  set_color(cr, kSound);
+  cairo_new_path(cr);
+  cairo_arc(cr, ox, oy, use_r * k, 0, 2 * kPi);
+  cairo_stroke(cr);
+  const double dash[] = {12, 8};
+  cairo_set_dash(cr, dash, 2, 0);
+  set_color(cr, kDead);
+  cairo_new_path(cr);
+  cairo_arc(cr, ox, oy, need_r * k, 0, 2 * kPi);
+  cairo_stroke(cr);
+  cairo_set_dash(cr, nullptr, 0, 0);
+  // The pith line's centre.
+  set_color(cr, kInk);
+  cairo_arc(cr, ox, oy, 3, 0, 2 * kPi);
+  cairo_fill(cr);
+  // Legend, large enough to read where the PDF shows the figure half a page wide.
+  set_font(cr, 24);
+  auto key = [&](double y, Rgb col, bool dashed, const std::string& text) {
+    cairo_set_line_width(cr, 3);
+    if (dashed) cairo_set_dash(cr, dash, 2, 0);
+    set_color(cr, col);
+    cairo_move_to(cr, margin, y - 6);
+    cairo_line_to(cr, margin + 36, y - 6);
+    cairo_stroke(cr);
+    cairo_set_dash(cr, nullptr, 0, 0);
+    set_color(cr, kInk);
+    draw_text(cr, text, margin + 46, y);
+  };
+  key(px - legend + 30, kSound, false, "usable diameter " + fmt("%.1f mm", usable));
+  key(px - legend + 68, kDead, true, "needed by the pattern " + fmt("%.1f mm", needed));
+  return surf;
+}
+
 }  // namespace sawyer::report

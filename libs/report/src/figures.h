@@ -52,4 +52,11 @@ SurfacePtr value_map(const SawingRecord& s, int w);
 // boards' length shaded.
 SurfacePtr log_profile(const LogModel& log, const BoardSet& boards, int w);
 
+// For a log that was not sawn (RunInfo::not_sawn): its top end (the end with the smaller mean
+// radius) as scanned, seen from the top end in the scanner's x, y, with the circle of its usable
+// diameter about the pith line (green) and the circle the pattern needs (red, dashed), and the
+// pattern's boards about the same centre at rotation 0 when `pattern` is given. A square of px.
+SurfacePtr top_end_fit(const LogModel& log, const NotSawn& why, const sawing::Pattern* pattern,
+                       int px);
+
 }  // namespace sawyer::report

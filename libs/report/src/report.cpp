@@ -116,6 +116,112 @@ BoardDetail board_detail(const RunFolder& run, const Result<sawing::GradingRules
   return d;
 }
 
+// The figures as PNG, for the documents and images/.
+Status encode_figures(Content& c) {
+  for (auto* list : {&c.figures, &c.board_figures})
+    for (Figure& f : *list) {
+      Result<std::string> png = encode_png(f.surface.get());
+      if (!png) return png.error().with_context(f.file);
+      f.png = std::move(png).value();
+    }
+  for (BoardDetail& d : c.details)
+    for (Figure& f : d.crops) {
+      Result<std::string> png = encode_png(f.surface.get());
+      if (!png) return png.error().with_context(f.file);
+      f.png = std::move(png).value();
+    }
+  return Status::Ok();
+}
+
+// The report folder, written whole: images/, report.pdf, report.html, boards.csv, report.json.
+Status write_documents(const Content& c, const fs::path& report_dir, ReportFiles& files) {
+  Status st = write_dir_atomic(report_dir, [&](const fs::path& tmp) -> Status {
+    fs::create_directories(tmp / "images");
+    files.images.clear();
+    for (const auto* list : {&c.figures, &c.board_figures})
+      for (const Figure& f : *list) {
+        if (Status w = write_bytes(tmp / "images" / f.file, f.png); !w) return w;
+        files.images.push_back(report_dir / "images" / f.file);
+      }
+    for (const BoardDetail& d : c.details) {
+      if (Status w = write_bytes(tmp / "images" / d.strip_file, d.strip_jpeg); !w) return w;
+      files.images.push_back(report_dir / "images" / d.strip_file);
+      for (const Figure& f : d.crops) {
+        if (Status w = write_bytes(tmp / "images" / f.file, f.png); !w) return w;
+        files.images.push_back(report_dir / "images" / f.file);
+      }
+    }
+    if (Status w = write_pdf(c, tmp / "report.pdf", &files.pages); !w) return w;
+    if (Status w = write_bytes(tmp / "report.html", report_html(c)); !w) return w;
+    if (Status w = write_bytes(tmp / "boards.csv", boards_csv(c)); !w) return w;
+    return write_bytes(tmp / "report.json", report_json(c, files));
+  });
+  if (!st) return st;
+  files.dir = report_dir;
+  files.pdf = report_dir / "report.pdf";
+  files.html = report_dir / "report.html";
+  files.csv = report_dir / "boards.csv";
+  files.json = report_dir / "report.json";
+  return Status::Ok();
+}
+
+// Both reports end alike: the log's profile, the figures encoded, the documents written.
+Result<ReportFiles> finish_report(Content& c, const RunFolder& run, const fs::path& report_dir,
+                                  const ReportOptions& options, Steps& steps, ReportFiles& files,
+                                  Clock::time_point t_all) {
+  c.figures.push_back({"log_profile.png",
+                       "Log profile",
+                       "Top: the pith's track in the scanner frame. Bottom: the diameter under "
+                       "bark along the log (equal-area diameter; band: smallest to largest "
+                       "across angles).",
+                       log_profile(run.log, c.boards, options.plot_width_px),
+                       {}});
+  steps.begin("png");
+  if (Status e = encode_figures(c); !e) return e.error();
+  steps.begin("documents");
+  if (Status w = write_documents(c, report_dir, files); !w) return w.error();
+  steps.finish();
+  files.seconds = std::chrono::duration<double>(Clock::now() - t_all).count();
+  return files;
+}
+
+// The report of a log that was scanned but not sawn (RunInfo::not_sawn): the log's figures, the
+// scan's QA, why it was not sawn with the diameter the pattern needs against the log's usable
+// one, the top end with both circles and the log's profile. No renderer: there are no boards
+// to show, and the scan's own QA images are in scan/qa/.
+Result<ReportFiles> write_not_sawn_report(const RunFolder& run, const fs::path& report_dir,
+                                          const ReportOptions& options,
+                                          const ReportProgress& progress) {
+  const auto t_all = Clock::now();
+  ReportFiles files;
+  Steps steps(3, progress, &files);
+  Content c;
+  c.run = &run;
+  c.summary = summarize(run.log);
+  c.boards.note = "The log was not sawn: no boards";
+
+  steps.begin("plots");
+  const NotSawn& why = *run.run.not_sawn;
+  // The pattern run.json names, to draw its boards; without it the circles say enough.
+  std::optional<sawing::Pattern> pattern;
+  if (!run.run.pattern.empty())
+    if (Result<sawing::Pattern> p = sawing::pattern_by_name(run.run.pattern); p)
+      pattern = std::move(p).value();
+  c.figures.push_back(
+      {"top_end.png",
+       "Top end",
+       "The log's top end as scanned (under bark), seen from the top end, scanner x to the "
+       "right and y up. Green: its usable diameter, the largest circle about the pith line "
+       "inside it; red, dashed: the diameter the pattern needs" +
+           std::string(pattern ? "; blue: the pattern's boards about the same centre (at one "
+                                 "of its rotations)"
+                               : "") +
+           ".",
+       top_end_fit(run.log, why, pattern ? &*pattern : nullptr, options.end_view_px),
+       {}});
+  return finish_report(c, run, report_dir, options, steps, files, t_all);
+}
+
 }  // namespace
 
 Status ReportOptions::validate() const {
@@ -135,6 +241,7 @@ Status ReportOptions::validate() const {
 Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_dir,
                                  const ReportOptions& options, const ReportProgress& progress) {
   if (Status st = options.validate(); !st) return st.error();
+  if (!run.sawn()) return write_not_sawn_report(run, report_dir, options, progress);
   const auto t_all = Clock::now();
   ReportFiles files;
   Steps steps(8, progress, &files);
@@ -256,59 +363,8 @@ Result<ReportFiles> write_report(const RunFolder& run, const fs::path& report_di
                   s.currency.c_str(), s.chosen_given ? "; diamond: the given position" : "");
     c.figures.push_back({"value_map.png", "Value map", buf, std::move(vm), {}});
   }
-  c.figures.push_back({"log_profile.png",
-                       "Log profile",
-                       "Top: the pith's track in the scanner frame. Bottom: the diameter under "
-                       "bark along the log (equal-area diameter; band: smallest to largest "
-                       "across angles).",
-                       log_profile(run.log, c.boards, options.plot_width_px),
-                       {}});
 
-  steps.begin("png");
-  for (auto* list : {&c.figures, &c.board_figures})
-    for (Figure& f : *list) {
-      Result<std::string> png = encode_png(f.surface.get());
-      if (!png) return png.error().with_context(f.file);
-      f.png = std::move(png).value();
-    }
-  for (BoardDetail& d : c.details)
-    for (Figure& f : d.crops) {
-      Result<std::string> png = encode_png(f.surface.get());
-      if (!png) return png.error().with_context(f.file);
-      f.png = std::move(png).value();
-    }
-
-  steps.begin("documents");
-  Status st = write_dir_atomic(report_dir, [&](const fs::path& tmp) -> Status {
-    fs::create_directories(tmp / "images");
-    files.images.clear();
-    for (const auto* list : {&c.figures, &c.board_figures})
-      for (const Figure& f : *list) {
-        if (Status w = write_bytes(tmp / "images" / f.file, f.png); !w) return w;
-        files.images.push_back(report_dir / "images" / f.file);
-      }
-    for (const BoardDetail& d : c.details) {
-      if (Status w = write_bytes(tmp / "images" / d.strip_file, d.strip_jpeg); !w) return w;
-      files.images.push_back(report_dir / "images" / d.strip_file);
-      for (const Figure& f : d.crops) {
-        if (Status w = write_bytes(tmp / "images" / f.file, f.png); !w) return w;
-        files.images.push_back(report_dir / "images" / f.file);
-      }
-    }
-    if (Status w = write_pdf(c, tmp / "report.pdf", &files.pages); !w) return w;
-    if (Status w = write_bytes(tmp / "report.html", report_html(c)); !w) return w;
-    if (Status w = write_bytes(tmp / "boards.csv", boards_csv(c)); !w) return w;
-    return write_bytes(tmp / "report.json", report_json(c, files));
-  });
-  if (!st) return st.error();
-  steps.finish();
-  files.dir = report_dir;
-  files.pdf = report_dir / "report.pdf";
-  files.html = report_dir / "report.html";
-  files.csv = report_dir / "boards.csv";
-  files.json = report_dir / "report.json";
-  files.seconds = std::chrono::duration<double>(Clock::now() - t_all).count();
-  return files;
+  return finish_report(c, run, report_dir, options, steps, files, t_all);
 }
 
 }  // namespace sawyer::report

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <optional>
 
 #include "sawyer/core/file_util.h"
 #include "sawyer/model/log_json.h"
@@ -51,6 +52,21 @@ Result<RunInfo> parse_run(const Json& j) {
     r.prices = opt_string(*o, "prices");
     r.position = opt_string(*o, "position");
   }
+  // A run that scanned the log but could not saw it says why (run_json_text).
+  if (opt_string(j, "outcome") == "not sawn") {
+    NotSawn ns;
+    if (auto n = j.find("not_sawn"); n != j.end() && n->is_object()) {
+      ns.reason = opt_string(*n, "reason");
+      ns.pattern = opt_string(*n, "pattern");
+      auto num = [&](const char* key) {
+        auto v = n->find(key);
+        return v != n->end() && v->is_number() ? v->get<double>() : -1.0;
+      };
+      ns.needed_diameter_mm = num("needed_diameter_mm");
+      ns.usable_diameter_mm = num("usable_diameter_mm");
+    }
+    r.not_sawn = ns;
+  }
   if (auto st = j.find("stages"); st != j.end() && st->is_array())
     for (const Json& s : *st)
       if (s.is_object())
@@ -71,6 +87,16 @@ std::string run_json_text(const RunRecord& run) {
   j["format"] = "sawyer-run/1";
   j["log_id"] = in.log_id;
   j["species"] = in.species;
+  // "sawn", or "not sawn" with why: the scan is complete, the pattern cannot be sawn from the
+  // log (the folder then has no sawing.json; docs/run.md).
+  j["outcome"] = in.not_sawn ? "not sawn" : "sawn";
+  if (in.not_sawn) {
+    const NotSawn& ns = *in.not_sawn;
+    j["not_sawn"] = {{"reason", ns.reason},
+                     {"pattern", ns.pattern},
+                     {"needed_diameter_mm", std::round(ns.needed_diameter_mm * 10) / 10},
+                     {"usable_diameter_mm", std::round(ns.usable_diameter_mm * 10) / 10}};
+  }
   j["scan_source"] = in.scan_source;
   j["scan_description"] = in.scan_description;
   j["scan_notes"] = in.scan_notes;
@@ -91,7 +117,7 @@ std::string run_json_text(const RunRecord& run) {
   // model the scan itself does not trust, and says so.
   if (run.qa) {
     j["qa"] = Ordered::parse(qa_json_text(*run.qa));
-    j["position_trusted"] = run.qa->trusted;
+    if (!in.not_sawn) j["position_trusted"] = run.qa->trusted;
   }
   j["date"] = in.date;
   j["sawyer_version"] = in.sawyer_version;
@@ -123,23 +149,39 @@ Result<RunFolder> load_run_folder(const fs::path& out) {
   if (!log) return log.error();
   f.log = std::move(log).value();
 
-  const fs::path sawing_path = out / "sawing.json";
-  Result<SawingRecord> sawing = sawing::read_sawing_file(sawing_path);
-  if (!sawing) return sawing.error();
-  f.sawing = std::move(sawing).value();
-  // A run's file is whole: a position saved by the viewer is not a run's results.
-  if (!f.sawing.best.present) return Error(sawing_path.string(), "best: missing");
-  if (f.sawing.log_id != f.log.id)
-    return Error(sawing_path.string(), "log '" + f.sawing.log_id + "' does not match " +
-                                           log_path.string() + " (log '" + f.log.id + "')");
-
+  // run.json first: a run that did not saw the log has no sawing.json. Its errors come after
+  // sawing.json's, as before.
   const fs::path run_path = out / "run.json";
+  std::optional<Result<RunInfo>> run;
   if (fs::exists(run_path)) {
     Result<Json> rj = read_json(run_path);
-    if (!rj) return rj.error();
-    Result<RunInfo> run = parse_run(rj.value());
-    if (!run) return run.error().with_context(run_path.string());
-    f.run = std::move(run).value();
+    if (!rj) {
+      run.emplace(rj.error());
+    } else {
+      Result<RunInfo> parsed = parse_run(rj.value());
+      if (parsed)
+        run.emplace(std::move(parsed));
+      else
+        run.emplace(parsed.error().with_context(run_path.string()));
+    }
+  }
+  const bool not_sawn = run && run->ok() && run->value().not_sawn;
+
+  const fs::path sawing_path = out / "sawing.json";
+  if (!not_sawn) {
+    Result<SawingRecord> sawing = sawing::read_sawing_file(sawing_path);
+    if (!sawing) return sawing.error();
+    f.sawing = std::move(sawing).value();
+    // A run's file is whole: a position saved by the viewer is not a run's results.
+    if (!f.sawing.best.present) return Error(sawing_path.string(), "best: missing");
+    if (f.sawing.log_id != f.log.id)
+      return Error(sawing_path.string(), "log '" + f.sawing.log_id + "' does not match " +
+                                             log_path.string() + " (log '" + f.log.id + "')");
+  }
+
+  if (run) {
+    if (!*run) return run->error();
+    f.run = std::move(*run).value();
     if (!f.run.log_id.empty() && f.run.log_id != f.log.id)
       return Error(run_path.string(), "log_id '" + f.run.log_id + "' does not match " +
                                           log_path.string() + " (log '" + f.log.id + "')");

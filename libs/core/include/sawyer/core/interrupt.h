@@ -26,6 +26,8 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitBadInput = 1;       // bad input or options, nothing written
 inline constexpr int kExitPartial = 2;        // batch: some logs failed, the others are done
 inline constexpr int kExitWarnings = 3;       // done, but a result is marked as not to be trusted
+inline constexpr int kExitNotSawn = 4;        // run: scan, run.json and report written, but the
+                                              // pattern cannot be sawn from the log
 inline constexpr int kExitInterrupted = 128;  // + the signal number (SIGINT 130, SIGTERM 143)
 
 void install_interrupt_cleanup();

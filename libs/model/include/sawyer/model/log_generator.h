@@ -41,6 +41,18 @@ struct GeneratorOptions {
   bool heartwood = true;       // also generate a heartwood radius
   LogPosition position = LogPosition::kDrawn;  // kDrawn: butt 40 %, middle 35 %, top 25 %
   bool bark = true;                            // also generate a bark thickness per height
+  // Pith eccentricity: the pith's distance from the outline's centre line, as a share of the
+  // mean radius. Real piths sit 0–25 % off (wind, compression wood; Lapland pines average
+  // 12 %). eccentricity_max < 0 (the default): the original draw, 1–5 % per log (±20 % along
+  // it) plus 1–4 mm of pith wander, the same log as ever. Else (0 ≤ min ≤ max ≤ 0.4): the
+  // eccentricity changes along the log by eccentricity_change (peak to peak over the log, a
+  // share of the radius; at most max − min) within a stretch of [min, max] placed at random,
+  // and its direction turns by up to ±eccentricity_turn_rad over the log; no separate wander,
+  // so the pith's offset is exactly that eccentricity. Drawn from a stream of its own: the
+  // outline, wood and knot draws are the default log's (knots end where the new radii say).
+  double eccentricity_min = 0, eccentricity_max = -1;
+  double eccentricity_change = 0.05;   // share of the radius, 0..0.4
+  double eccentricity_turn_rad = 0.5;  // 0..π
   // The realistic ranges (30–120 knots, butt diameter 120–450 mm, ...) hold for drawn lengths
   // and diameters; explicit ones outside 3–6 m or typical diameters may leave them.
 

@@ -9,7 +9,8 @@
 //   "knots": [ { "id": 0, "z0": .., "a": .., "b": .., "omega0": .., "twist": .., "r_dead": ..,
 //                "r_end": .., "d_dead": .., "d_exp": .., "fit_rms_mm": .., "support": .. }, ... ],
 //   "scanner_frame": { "origin_mm": [x, y, z], "row_dir": [..], "col_dir": [..], "z0_mm": ..,
-//                      "z_dir": 1 }   (optional; absent: the identity at 0)
+//                      "z_dir": 1, "slice_dir": [..] (coronal and sagittal scans only) }
+//                    (optional; absent: the identity at 0)
 // }
 //
 // Units: millimetres and radians. Numbers are written with enough digits to read back exactly.

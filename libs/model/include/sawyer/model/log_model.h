@@ -3,7 +3,8 @@
 //
 // Frames and units: millimetres and radians. x, y are the CT scanner's x and y (mm, exactly as
 // the CT file places its pixels) in the slice plane; z runs along the log from the first slice
-// (docs/formats.md, "The scanner frame"); ScannerFrame maps z back to the scanner's z. Azimuth ω =
+// (docs/formats.md, "The scanner frame"); ScannerFrame maps z back to the scanner's z (and, for a
+// coronal or sagittal scan, whose x and y stay in the slices' own axes, every point). Azimuth ω =
 // atan2(y − pith_y, x − pith_x) in [0, 2π), counter-clockwise from +x seen from +z. Pith distance r
 // = horizontal distance from the pith at that height.
 //
@@ -16,6 +17,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -114,20 +116,45 @@ struct MaterialSample {
   bool heartwood = false;  // inside the heartwood radius (when the stem has one)
 };
 
-// Where the model lies in the CT scanner (log.json "scanner_frame", optional). The model's x
-// and y are the scanner's; its z starts at the first slice and runs along the slices, so the
-// scanner's z of a model height z is z0_mm + z_dir·z. The file's own origin and row/column
-// directions are kept as the CT file gave them, for the record (the scan mirrors or transposes
-// slices whose rows do not run along +x; docs/ct_input.md).
+// Where the model lies in the CT scanner (log.json "scanner_frame", optional).
+//
+// Axial scans (slices across the scanner's z; slice_dir (0, 0, ±1)): the model's x and y are the
+// scanner's; its z starts at the first slice and runs along the slices, so the scanner's z of a
+// model height z is z0_mm + z_dir·z. The file's own origin and row/column directions are kept as
+// the CT file gave them, for the record (the scan mirrors or transposes slices whose rows do not
+// run along +x; docs/ct_input.md).
+//
+// Coronal and sagittal scans (slices across the scanner's y or x: the log lay along that axis)
+// are not turned, since no turn of the slices puts x and y on the scanner's x and y: the model
+// stays in the slices' own axes, x = column·pixel and y = row·pixel from pixel (0, 0) and z along
+// slice_dir from the first slice, so that model point p lies at origin_mm + p.x·row_dir +
+// p.y·col_dir + p.z·slice_dir (to_scanner()). z0_mm and z_dir then describe the scanner axis
+// slice_dir runs along (the first slice's coordinate on it and the direction z grows in).
 struct ScannerFrame {
   Vec3 origin_mm;         // scanner position of the centre of pixel (0, 0) of the first slice
   Vec3 row_dir{1, 0, 0};  // the file's direction along a row (increasing column)
   Vec3 col_dir{0, 1, 0};  // the file's direction down a column (increasing row)
-  double z0_mm = 0.0;     // scanner z of the model's z = 0 (the first slice)
-  double z_dir = 1.0;     // +1: z grows with the scanner's z; -1: against it
+  // The scanner direction in which the model's z grows (the slices' normal, signed as they are
+  // ordered); (0, 0, z_dir) for an axial scan.
+  Vec3 slice_dir{0, 0, 1};
+  double z0_mm = 0.0;  // scanner coordinate of the model's z = 0 (the first slice) on slice_axis()
+  double z_dir = 1.0;  // +1: z grows with that scanner coordinate; -1: against it
 
+  // The scanner axis slice_dir runs along (0 = x, 1 = y, 2 = z): its largest component.
+  int slice_axis() const {
+    const double ax = std::abs(slice_dir.x), ay = std::abs(slice_dir.y);
+    const double az = std::abs(slice_dir.z);
+    return az >= ax && az >= ay ? 2 : ay >= ax ? 1 : 0;
+  }
+  // Slices across the scanner's z: the model's x and y are the scanner's.
+  bool axial() const { return slice_axis() == 2; }
+  // The scanner coordinate on slice_axis() of model height z (axial: the scanner's z).
   double scanner_z(double z) const { return z0_mm + z_dir * z; }
-  Vec3 to_scanner(const Vec3& p) const { return {p.x, p.y, scanner_z(p.z)}; }
+  // The scanner position of model point p.
+  Vec3 to_scanner(const Vec3& p) const {
+    if (axial()) return {p.x, p.y, scanner_z(p.z)};
+    return origin_mm + p.x * row_dir + p.y * col_dir + p.z * slice_dir;
+  }
 };
 
 // The scan's own verdict on what it measured (log.json "qa", optional; made by
@@ -174,10 +201,11 @@ Stem resample_stem(const Stem& stem, double max_step_mm);
 int resampled_count(int n, double dz_mm, double max_step_mm);
 
 // Moves a model measured in a CT image's own axes (x = column·pixel, y = row·pixel from the
-// centre of pixel (0, 0), z from the first slice, rows along the scanner's +x and columns along
-// +y) into the scanner frame: adds `pixel0` (the scanner x, y of pixel (0, 0)) to every pith
-// sample and records `frame`. Knots are relative to the pith and the heights keep their origin,
-// so nothing else moves.
+// centre of pixel (0, 0), z from the first slice) into the scanner frame and records `frame`.
+// For an axial frame (rows turned along the scanner's +x and columns along +y) it adds `pixel0`
+// (the scanner x, y of pixel (0, 0)) to every pith sample; a coronal or sagittal frame keeps the
+// image's own axes (ScannerFrame), so nothing is added. Knots are relative to the pith and the
+// heights keep their origin, so nothing else moves.
 void place_in_scanner_frame(LogModel& log, const Vec2& pixel0, const ScannerFrame& frame);
 
 }  // namespace sawyer

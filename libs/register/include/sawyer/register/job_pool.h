@@ -32,7 +32,10 @@ struct JobResult {
   bool ok() const { return exit_code == 0; }
   // `sawyer run`'s exit 3: every result written, but the scan's QA verdict failed (README).
   bool warned() const { return exit_code == 3; }
-  bool completed() const { return ok() || warned(); }
+  // `sawyer run`'s exit 4: the scan, run.json and a report written, but the pattern cannot be
+  // sawn from the log (README): done, not failed.
+  bool not_sawn() const { return exit_code == 4; }
+  bool completed() const { return ok() || warned() || not_sawn(); }
 };
 
 struct JobPoolOptions {

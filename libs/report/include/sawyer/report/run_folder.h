@@ -1,7 +1,8 @@
 // A run folder as `sawyer run` leaves it, read back for the cutting report (docs/report.md):
 //
 //   <out>/scan/log.json   the log model (sawyer-log/1)
-//   <out>/sawing.json     `sawyer saw`'s results (sawyer-sawing/1), plus "chosen": "best"|"given"
+//   <out>/sawing.json     `sawyer saw`'s results (sawyer-sawing/1), plus "chosen": "best"|"given";
+//                         absent when run.json says the log was not sawn (NotSawn below)
 //   <out>/run.json        provenance (sawyer-run/1); optional, as is every key but "format";
 //                         written by write_run_file below
 //
@@ -23,6 +24,16 @@
 
 namespace sawyer::report {
 
+// Why a run with a complete scan sawed nothing (run.json "outcome": "not sawn", "not_sawn"):
+// the chosen pattern cannot be sawn from the log at any position (docs/run.md, "Not sawn").
+struct NotSawn {
+  std::string reason;   // one line, e.g. check_pattern_fits()'s "pattern '2ex ...' does not fit:
+                        // it needs a diameter of 182.0 mm, the log's usable diameter is ..."
+  std::string pattern;  // the pattern's name
+  double needed_diameter_mm = -1;  // Pattern::required_diameter_mm()
+  double usable_diameter_mm = -1;  // SawLog::usable_diameter_mm()
+};
+
 // run.json. Empty strings and negative numbers mean "not given" (the report shows "—").
 struct RunInfo {
   bool present = false;  // false when the folder has no run.json
@@ -39,6 +50,8 @@ struct RunInfo {
     double peak_mb = -1;  // the process's peak resident memory by the stage's end (-1: unknown)
   };
   std::vector<Stage> stages;
+  // Set when the run scanned the log but did not saw it: the folder then has no sawing.json.
+  std::optional<NotSawn> not_sawn;
 };
 
 // run.json as `sawyer run` writes it: what RunInfo reads back, and what only the file keeps for
@@ -72,11 +85,13 @@ struct RunFolder {
   std::filesystem::path dir;
   LogModel log;
   RunInfo run;
-  SawingRecord sawing;
+  SawingRecord sawing;  // empty when the log was not sawn (run.not_sawn)
+  bool sawn() const { return !run.not_sawn; }
 };
 
 // Reads and cross-checks the folder: scan/log.json and sawing.json must exist and parse, the
 // log ids of log.json, sawing.json and run.json agree, and the chosen position has its boards.
+// A folder whose run.json says "not sawn" needs no sawing.json (one there is not read).
 // Errors name the file (and key) and what is wrong.
 Result<RunFolder> load_run_folder(const std::filesystem::path& out);
 

@@ -8,11 +8,18 @@
 //   RunObserver obs{.update = bar_update, .done = bar_done, .decision = print_line};
 //   Result<std::unique_ptr<RunOutcome>> r = run_job(o, obs);
 //   if (r && !r.value()->scan.trusted()) ...   // written whole, but the QA verdict failed
+//   if (r && r.value()->not_sawn) ...           // scanned and written, but not sawn: why
 //
 // Order: everything named in the options is checked before the scan starts (the sawing files,
 // the register), then the scan is opened (headers only), then the output is checked and locked.
 // The run folder is written whole or not at all (write_dir_atomic); the register's row is the
 // last thing written, so a register that refuses it leaves no output behind either.
+//
+// A complete scan is never thrown away: when the pattern cannot be sawn from the log (it needs
+// a larger diameter than the log's usable one), the job still succeeds with `not_sawn` set and
+// writes the folder without sawing.json: scan/, run.json ("outcome": "not sawn" and why) and a
+// report that says why. The register has no column for such a log, so it gets no row (an earlier
+// row of the same scan stays as it was). The front end exits 4 (docs/run.md).
 #pragma once
 
 #include <filesystem>
@@ -52,7 +59,8 @@ struct RunObserver {
   std::function<void(const char* stage, int done, int total, const char* unit)> update;
   // A stage ended after `seconds`, with a short note ("793 slices, 108 knots").
   std::function<void(const char* stage, double seconds, const std::string& note)> done;
-  // The decision, as soon as it is known and before the files are written: one line.
+  // The decision, as soon as it is known and before the files are written: one line (not
+  // called for a log that is not sawn).
   std::function<void(const std::string& line)> decision;
 };
 
@@ -66,14 +74,18 @@ struct RunOutcome {
   ScanJob scan;
   sawing::SawSetup setup;
   std::optional<sawing::SawingOutcome> sawn;  // set once the job has sawn the log
+  // Set instead of `sawn` when the pattern cannot be sawn from the log: why, with the diameter
+  // the pattern needs and the log's usable diameter (as run.json states it).
+  std::optional<report::NotSawn> not_sawn;
   LogSummary summary;
   std::vector<report::RunInfo::Stage> stages;  // as run.json states them
   report::ReportFiles report;                  // empty with no_report
   std::filesystem::path out_dir, db;           // db: empty with no_register
   double seconds = 0;                          // the whole job
   const LogModel& log() const { return scan.log(); }
+  // Only when the log was sawn (not_sawn empty).
   const sawing::SawingOutcome& outcome() const { return *sawn; }
-  // The position the files state: the given one, else the optimiser's best.
+  // The position the files state: the given one, else the optimiser's best (sawn logs only).
   const sawing::LogPosition& position() const;
 };
 

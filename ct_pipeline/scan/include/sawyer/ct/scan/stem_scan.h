@@ -69,12 +69,14 @@ struct StemScanOptions {
   double converged_mm = 0.25;
   // Rings count as resolved where the ring profile's signal share (smoothed along z) reaches
   // this (clear rings score 0.95 and more, resolved but faint ones 0.65-0.8; a lock one ring
-  // off, onto a knot or onto noise 0.2-0.6 in the robustness sweep), and the ring pith lies within
-  // max_shape_offset of the log's radius of the shape centre (the pith lies inside the heart: 1-5 %
-  // of the radius off the outline's centre in most logs, 7 % in the real Gran_1 spruce; rings that
-  // line up farther off are a knot's, or noise locked onto a ring).
+  // off, onto a knot or onto noise 0.2-0.6 in the robustness sweep), wherever the ring pith lies
+  // in the section: real piths sit up to 20-25 % of the radius off the outline's centre (wind,
+  // compression wood; Lapland pines average 12 %), and the pith is where the rings say. Only a
+  // ring pith beyond max_eccentricity of the radius, next to the bark where no log has its
+  // pith (the QA verdict's "near the bark", QaOptions::pith_max_eccentricity), is not believed;
+  // the same bound holds for where a whorl's knots meet.
   double min_ring_signal = 0.6;
-  double max_shape_offset = 0.12;
+  double max_eccentricity = 0.45;
   // ... and where the ring period the profile shows is at least this many pixels: narrower
   // rings are not resolved, and what lines up there is aliasing, knots or the heartwood step
   // (real rings are 0.8-3 mm: at 1.5-2 mm pixels they never are).
@@ -114,8 +116,8 @@ struct StemSliceRecord {
   double pith_confidence = 0;
   double pith_expected_error_mm = 0;
   // The rings around the pith stood out of their noise (ring_signal, the ring profile's signal
-  // share 0..1 smoothed along z, at least StemScanOptions::min_ring_signal) and the ring pith
-  // lies inside the heart of the log (near pith_shape).
+  // share 0..1 smoothed along z, at least StemScanOptions::min_ring_signal), at a period of two
+  // pixels or more.
   bool rings_resolved = false;
   double ring_signal = 0;
   double ring_period_mm = 0;  // the ring profile's period, smoothed along z as ring_signal
@@ -136,8 +138,9 @@ struct PithSummary {
   int whorl_slices = 0;             // slices where a whorl's knot streaks met (and agreed)
   double ring_signal = 0;           // median over the slices
   double median_expected_error_mm = 0, max_expected_error_mm = 0;
-  // The offset of the ring pith from the shape centre where the rings were resolved (mm,
-  // median); what the shape cue is shifted by elsewhere. 0 when no slice had resolved rings.
+  // The offset of the ring pith from the shape centre where the rings were resolved (mm, the
+  // median over those slices); unresolved slices carry the offset of the nearest resolved
+  // stretch along z. 0 when no slice had resolved rings.
   double eccentricity_mm = 0;
   // The longest run of slices following the shape cue (z, mm); NaN when none.
   double uncertain_from_z = std::numeric_limits<double>::quiet_NaN();
@@ -179,9 +182,10 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options,
 // radius per equally spaced azimuth around `to` (same count). Invalid entries stay invalid where
 // no valid neighbour covers them. Used after the pith is smoothed; exposed for tests.
 // The scanner frame of a source turned by to_scanner_axes() (or already along the axes): the
-// file's origin and row/column directions, and the scanner z of the first slice with the sign
-// of z along the scanner's z. place_in_scanner_frame(log, {g.origin.x, g.origin.y},
-// scanner_frame_of(g)) puts a model measured on the source into it.
+// file's origin and row/column directions, the slices' direction, and the scanner coordinate of
+// the first slice along it with the sign of z along it (axial: the scanner's z).
+// place_in_scanner_frame(log, {g.origin.x, g.origin.y}, scanner_frame_of(g)) puts a model
+// measured on the source into it (a coronal or sagittal model stays in the slices' axes).
 ScannerFrame scanner_frame_of(const VolumeGeometry& g);
 
 void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& radius,

@@ -38,6 +38,9 @@ struct ScanLevels {
   bool two_wood_modes = false;
   double noise_air_hu = 0;   // noise sigma in air (0 where air is clipped, a windowed export)
   double noise_wood_hu = 0;  // noise sigma in wood (with the finest ring texture)
+  // A dried log's spread above its wood mode (latewood bands, one-sided robust sigma; 0 for a
+  // green log): dense_hu stays above it, so a dried log's latewood and bark are wood, not the bed.
+  double texture_wood_hu = 0;
   // Derived thresholds.
   double log_hu = -700;   // air / log: 60 % of the way from air to the lightest wood mode
   double dense_hu = 150;  // denser than any wood: the bed's belt, rails, clutter

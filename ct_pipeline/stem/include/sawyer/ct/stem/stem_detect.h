@@ -80,7 +80,8 @@ PithResult detect_pith(const Slice& slice, const VolumeGeometry& geometry,
                        const PithOptions& options, const Vec2* prior_mm);
 
 // Where the pith of a slice with no prior may be: the strongest peaks of the whole-slice vote
-// (at least 8 mm apart) and the section's centroid, each voted on again nearby (`vote`), then
+// (at least 8 mm apart), those of a second vote that lets strong edges in (crisp real rings
+// are strong edges) and the section's centroid, each voted on again nearby (`vote`), then
 // moved to where the rings (circles) line up best within 6 mm (`rings`, the centre `score` is
 // measured around: wide_ring_score). The strongest vote peak comes first. Empty when the slice
 // holds no log.
@@ -96,8 +97,9 @@ std::vector<PithCandidate> pith_candidates(const Slice& slice, const VolumeGeome
 // How well the annual rings of `slice` line up around `centre` out to half the log's radius
 // (24 to 60 mm), taken as homothetic to the outer contour measured around `centre` (the outer
 // rings follow the log's shape; circles that far out lean towards the centre of an eccentric
-// section): the signal share of the ring profile (refine_pith_concentric), 0..1. A knot has
-// rings of its own, but only out to its own radius. 0 without a contour.
+// section): the median over 12 mm bands of radius of each band's ring-profile signal share
+// (refine_pith_concentric), 0..1. A knot has rings of its own, but only out to its own radius,
+// and one strong step in the profile (a knot's rim) lifts one band only. 0 without a contour.
 double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 centre);
 
 // Ring-profile refinement: the centre within search_mm of `start` around which the slice's
@@ -111,9 +113,10 @@ double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 
 // of an eccentric section by a fraction of a millimetre. Best on a slice averaged along z
 // (pith_track.h). confidence: signal share of the profile energy (0..1).
 inline constexpr double kRingProfileMaxMm = 24.0;
+// `ring_min_mm` (at least 1.5 mm) leaves the innermost rings out: a band of the profile alone.
 PithResult refine_pith_concentric(const Slice& slice, const VolumeGeometry& geometry, Vec2 start,
                                   double search_mm, const std::vector<double>* outline,
-                                  double ring_max_mm = kRingProfileMaxMm);
+                                  double ring_max_mm = kRingProfileMaxMm, double ring_min_mm = 0.0);
 // The pixels refine_pith_concentric reads lie within this distance (mm) of `start`.
 inline double ring_profile_reach_mm(double search_mm, double ring_max_mm = kRingProfileMaxMm) {
   return ring_max_mm + search_mm + 1.0;
