@@ -57,6 +57,23 @@ int rows(const fs::path& db) {
   return n ? n.value() : -1;
 }
 
+// The run folder `out`'s report.html, whole.
+std::string report_html(const fs::path& out) {
+  std::ifstream f(out / "report" / "report.html");
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+// The text of the run folder `out`'s report.pdf (its first `pages` pages; 0: all) through
+// pdftotext; false when pdftotext is not installed. A failing pdftotext fails the test.
+bool report_pdf_text(const fs::path& out, std::string* text, int pages = 0) {
+  if (test::run_command("command -v pdftotext >/dev/null", text) != 0) return false;
+  const std::string first = pages > 0 ? "-l " + std::to_string(pages) + " " : "";
+  EXPECT_EQ(test::run_command(
+                "pdftotext " + first + test::quoted(out / "report" / "report.pdf") + " -", text),
+            0);
+  return true;
+}
+
 }  // namespace
 
 TEST(RunCli, WritesScanSawingReportAndRegistersTheLog) {
@@ -108,21 +125,14 @@ TEST(RunCli, WritesScanSawingReportAndRegistersTheLog) {
   EXPECT_NEAR(run["scanner_frame"]["origin_mm"][2].get<double>(), first_z, 1e-3);
   EXPECT_EQ(saw["frame"]["coordinates"], "scanner");
   EXPECT_EQ(saw["frame"]["scanner_frame"], run["scanner_frame"]);
-  const std::string html = [&] {
-    std::ifstream f(dir / "out" / "report" / "report.html");
-    return std::string(std::istreambuf_iterator<char>(f), {});
-  }();
+  const std::string html = report_html(dir / "out");
   char frame[64];
   std::snprintf(frame, sizeof frame, "scanner x, y; z from %.1f mm",
                 run["scanner_frame"]["z0_mm"].get<double>());
   EXPECT_NE(html.find(std::string("<th>Frame</th><td>") + frame + "</td>"), std::string::npos)
       << frame;
   std::string pdf_text;
-  if (test::run_command("command -v pdftotext >/dev/null", &pdf_text) == 0) {
-    ASSERT_EQ(
-        test::run_command("pdftotext " + test::quoted(dir / "out" / "report" / "report.pdf") + " -",
-                          &pdf_text),
-        0);
+  if (report_pdf_text(dir / "out", &pdf_text)) {
     EXPECT_NE(pdf_text.find(frame), std::string::npos) << frame << " not in\n" << pdf_text;
   }
 
@@ -189,11 +199,7 @@ TEST(RunCli, AScanThatFailsItsQaIsWrittenMarkedAndExitsThree) {
   ASSERT_FALSE(run["qa"]["warnings"].empty());
   EXPECT_EQ(rows(dir / "logs.sqlite"), 1);  // registered all the same
   std::string pdf_text;
-  if (test::run_command("command -v pdftotext >/dev/null", &pdf_text) == 0) {
-    ASSERT_EQ(test::run_command(
-                  "pdftotext -l 1 " + test::quoted(dir / "out" / "report" / "report.pdf") + " -",
-                  &pdf_text),
-              0);
+  if (report_pdf_text(dir / "out", &pdf_text, 1)) {
     EXPECT_NE(pdf_text.find("NOT TO BE TRUSTED"), std::string::npos) << pdf_text;
     EXPECT_NE(pdf_text.find("image's edge"), std::string::npos) << pdf_text;
   }
@@ -343,21 +349,14 @@ TEST(RunCli, APatternThatDoesNotFitWritesTheScanAndAReportAndExitsFour) {
   ASSERT_FALSE(rep.is_discarded());
   EXPECT_EQ(rep["outcome"], "not sawn");
   EXPECT_TRUE(rep["boards"].empty());
-  const std::string html = [&] {
-    std::ifstream f(dir / "out" / "report" / "report.html");
-    return std::string(std::istreambuf_iterator<char>(f), {});
-  }();
+  const std::string html = report_html(dir / "out");
   char diameters[160];
   std::snprintf(diameters, sizeof diameters, "needs a log at least %.1f mm across",
                 run["not_sawn"]["needed_diameter_mm"].get<double>());
   EXPECT_NE(html.find("NOT SAWN"), std::string::npos);
   EXPECT_NE(html.find(diameters), std::string::npos) << diameters;
   std::string pdf_text;
-  if (test::run_command("command -v pdftotext >/dev/null", &pdf_text) == 0) {
-    ASSERT_EQ(
-        test::run_command("pdftotext " + test::quoted(dir / "out" / "report" / "report.pdf") + " -",
-                          &pdf_text),
-        0);
+  if (report_pdf_text(dir / "out", &pdf_text)) {
     EXPECT_NE(pdf_text.find("NOT SAWN"), std::string::npos) << pdf_text;
     char usable_text[64];
     std::snprintf(usable_text, sizeof usable_text, "%.1f mm", usable);
