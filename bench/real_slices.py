@@ -32,7 +32,8 @@ PYTHON = "/usr/bin/python3" if os.path.exists("/usr/bin/python3") else sys.execu
 p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
 p.add_argument("--sawyer", default=os.path.join(ROOT, "build", "apps", "sawyer", "sawyer"))
 p.add_argument("--data", default=os.path.join(ROOT, "..", "shared", "realdata"))
-p.add_argument("--work", help="folder for the cases and scans (default: a temporary one)")
+p.add_argument("--work", help="folder for the cases and scans: new, empty or one this bench made "
+               "(default: a temporary one)")
 p.add_argument("--quick", action="store_true", help="seed 1 only (11 cases)")
 p.add_argument("--jobs", type=int, default=2, help="cases made and scanned at once")
 p.add_argument("--only", help="comma-separated case name prefixes")
@@ -80,7 +81,13 @@ if a.only:
     cases = [c for c in cases if any(c[0].startswith(k) for k in keep)]
 
 work = a.work or tempfile.mkdtemp(prefix="sawyer_real_")
+# The cases and scans are made and removed by name inside the work folder: only in one this
+# bench made (its marker file), never in a folder that holds anything else.
+MARKER = os.path.join(work, ".sawyer_real_slices")
+if os.path.isdir(work) and os.listdir(work) and not os.path.exists(MARKER):
+    sys.exit(f"real_slices: {work}: not empty and not a real_slices work folder; give an empty or new one")
 os.makedirs(work, exist_ok=True)
+open(MARKER, "w").close()
 
 
 def run_case(case):
