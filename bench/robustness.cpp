@@ -350,15 +350,17 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
     const Vec2 want = truth.stem.pith_at(rec.z);
     err.push_back((rec.pith - want).norm());
     if (std::getenv("SAWYER_PITH_TRACE"))  // per-slice pith figures, for diagnosing one condition
-      std::fprintf(stderr,
-                   "  z %7.1f pith %6.2f shape %6.2f raw %6.2f refined %6.2f whorl %6.2f%s (%d) "
-                   "signal %.2f period %.2f expected %.2f cue %s\n",
-                   rec.z, (rec.pith - want).norm(), (rec.pith_shape - want).norm(),
-                   rec.pith_raw.found ? (rec.pith_raw.pith_mm - want).norm() : -1.0,
-                   rec.pith_refined.found ? (rec.pith_refined.pith_mm - want).norm() : -1.0,
-                   rec.whorl_found ? (rec.pith_whorl - want).norm() : -1.0,
-                   rec.whorl_used ? "*" : " ", rec.whorl_knots, rec.ring_signal, rec.ring_period_mm,
-                   rec.pith_expected_error_mm, pith_cue_name(rec.pith_cue));
+      std::fprintf(
+          stderr,
+          "  z %7.1f pith %6.2f shape %6.2f raw %6.2f refined %6.2f whorl %6.2f%s (%d) "
+          "signal %.2f period %.2f expected %.2f cue %s err (%.2f %.2f) shape (%.2f %.2f)\n",
+          rec.z, (rec.pith - want).norm(), (rec.pith_shape - want).norm(),
+          rec.pith_raw.found ? (rec.pith_raw.pith_mm - want).norm() : -1.0,
+          rec.pith_refined.found ? (rec.pith_refined.pith_mm - want).norm() : -1.0,
+          rec.whorl_found ? (rec.pith_whorl - want).norm() : -1.0, rec.whorl_used ? "*" : " ",
+          rec.whorl_knots, rec.ring_signal, rec.ring_period_mm, rec.pith_expected_error_mm,
+          pith_cue_name(rec.pith_cue), (rec.pith - want).x, (rec.pith - want).y,
+          (rec.pith_shape - want).x, (rec.pith_shape - want).y);
     auto add = [&](std::vector<double> rad, std::vector<bool> ok, auto truth_at, double& sum2,
                    long& count) {
       recentre_contour(rec.pith, want, rad, ok);

@@ -2,10 +2,17 @@
 // it: the bundled real spruce log (4.0 m, 108 knots) and generated 4 m logs, each as a DICOM
 // series at 5 mm slices, 512 × 512 × 0.8 mm (generated logs: 4 m, 200 mm at the top, so that
 // the default 2ex pattern fits). The scans are synthesised once into a cache folder.
-// Prints per log the stage times that run.json records and the command's wall time, best and
-// median of the repeats; the target is ≤ 5 s on 2 cores.
+// Prints per log the stage times that run.json records, the time to the decision (scan and saw
+// done, the position printed: what the saw line waits for) and the command's wall time, best
+// and median of the repeats.
+//
+// --baseline BINARY runs another build's sawyer (e.g. one of a6ddf54, before the robustness
+// work) on the same scans, alternating with this one run by run so that both see the same
+// machine, and prints its row and the ratios: this build's whole run and its decision, each
+// against the baseline's whole run (issue 42's targets: ≤ 0.76 and ≤ 0.46).
 //
 //   build/bench/run_bench [--repeat 3] [--cache DIR] [--threads N] [--logs gran1,pine21,spruce24]
+//                         [--baseline BINARY]
 #include <nlohmann/json.hpp>
 
 #include <sys/resource.h>
@@ -54,6 +61,15 @@ int sh_peak(const std::string& cmd, double* peak_mib) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
 }
 
+// One sawyer binary's runs of one log.
+struct Build {
+  std::string label, exe;
+  std::map<std::string, std::vector<double>> stage;
+  std::vector<double> wall, decision;
+  double peak = 0;
+  int slices = 0, knots = 0;
+};
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : v[v.size() / 2];
@@ -64,7 +80,7 @@ double median(std::vector<double> v) {
 int main(int argc, char** argv) {
   const std::string sawyer = SAWYER_EXE, src = SAWYER_SOURCE_DIR;
   int repeat = 3;
-  std::string cache = "bench_ct", logs = "gran1,pine21,spruce24", threads;
+  std::string cache = "bench_ct", logs = "gran1,pine21,spruce24", threads, baseline;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--repeat"))
       repeat = std::max(1, std::atoi(argv[i + 1]));
@@ -74,6 +90,8 @@ int main(int argc, char** argv) {
       logs = argv[i + 1];
     else if (!std::strcmp(argv[i], "--threads"))
       threads = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--baseline"))
+      baseline = argv[i + 1];
   }
   fs::create_directories(cache);
   std::vector<Case> cases;
@@ -95,9 +113,10 @@ int main(int argc, char** argv) {
     }
   }
 
-  std::printf("%-14s %7s %6s | %6s %6s %6s %8s %6s | %7s %7s %8s | %s\n", "log", "slices", "knots",
-              "scan", "saw", "write", "checksum", "report", "wall", "median", "peak MiB",
-              "runs (s)");
+  std::printf("%-14s %-8s %6s %5s | %6s %6s %6s %8s %6s | %8s %7s %7s %8s | %s\n", "log", "build",
+              "slices", "knots", "scan", "saw", "write", "checksum", "report", "decision", "wall",
+              "median", "peak MiB", "runs (s)");
+  std::vector<std::string> ratio_lines;
   for (const Case& c : cases) {
     if (!c.model_cmd.empty() && !fs::exists(c.model) && sh(c.model_cmd) != 0) return 1;
     const std::string ct = cache + "/" + c.name + "_ct";
@@ -105,46 +124,73 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "run_bench: synthesising %s (once)\n", ct.c_str());
       if (sh(sawyer + " phantom " + c.model + " -o " + ct + " --seed 1 >/dev/null") != 0) return 1;
     }
-    std::map<std::string, std::vector<double>> stage;
-    std::vector<double> wall;
-    double peak = 0;
-    int slices = 0, knots = 0;
-    for (int r = 0; r < repeat; ++r) {
-      const std::string out = cache + "/" + c.name + "_run";
-      std::string cmd = sawyer + " run " + ct + " -o " + out + " --quiet --db " + cache +
-                        "/bench.sqlite --id " + c.name;
-      if (!threads.empty()) cmd += " --threads " + threads;
-      const auto t0 = std::chrono::steady_clock::now();
-      double p = 0;
-      if (sh_peak(cmd + " >/dev/null", &p) != 0) return 1;
-      peak = std::max(peak, p);
-      wall.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      std::ifstream f(out + "/run.json");
-      const nlohmann::json j = nlohmann::json::parse(f, nullptr, false);
-      if (j.is_discarded()) {
-        std::fprintf(stderr, "run_bench: %s/run.json unreadable\n", out.c_str());
-        return 1;
+    std::vector<Build> builds = {{"this", sawyer}};
+    if (!baseline.empty()) builds.push_back({"baseline", baseline});
+    for (int r = 0; r < repeat; ++r)
+      for (Build& b : builds) {  // alternating: both builds see the machine as it is now
+        const std::string out = cache + "/" + c.name + "_run_" + b.label;
+        std::string cmd = b.exe + " run " + ct + " -o " + out + " --quiet --db " + cache + "/" +
+                          b.label + ".sqlite --id " + c.name;
+        if (!threads.empty()) cmd += " --threads " + threads;
+        const auto t0 = std::chrono::steady_clock::now();
+        double p = 0;
+        if (sh_peak(cmd + " >/dev/null", &p) != 0) {
+          std::fprintf(stderr, "run_bench: failed: %s\n", cmd.c_str());
+          return 1;
+        }
+        b.peak = std::max(b.peak, p);
+        b.wall.push_back(
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        std::ifstream f(out + "/run.json");
+        const nlohmann::json j = nlohmann::json::parse(f, nullptr, false);
+        if (j.is_discarded()) {
+          std::fprintf(stderr, "run_bench: %s/run.json unreadable\n", out.c_str());
+          return 1;
+        }
+        for (const auto& s : j["stages"]) b.stage[s["name"]].push_back(s["seconds"].get<double>());
+        // An older run.json has no "time": its decision came after everything (-1: not known).
+        double decision = -1;
+        if (j.contains("time") && j["time"].contains("to_decision_s"))
+          decision = j["time"]["to_decision_s"].get<double>();
+        b.decision.push_back(decision);
+        b.slices = j.value("slices", 0);
+        b.knots = j.value("knots", 0);
       }
-      for (const auto& s : j["stages"]) stage[s["name"]].push_back(s["seconds"].get<double>());
-      slices = j.value("slices", 0);
-      knots = j.value("knots", 0);
+    for (const Build& b : builds) {
+      auto med = [&](const char* s) {
+        auto it = b.stage.find(s);
+        return it == b.stage.end() ? 0.0 : median(it->second);
+      };
+      std::string runs;
+      for (double w : b.wall) {
+        char t[16];
+        std::snprintf(t, sizeof t, "%.2f ", w);
+        runs += t;
+      }
+      const double dec = median(b.decision);
+      char dec_text[16] = "-";
+      if (dec >= 0) std::snprintf(dec_text, sizeof dec_text, "%.2f", dec);
+      std::printf(
+          "%-14s %-8s %6d %5d | %6.2f %6.2f %6.2f %8.2f %6.2f | %8s %7.2f %7.2f %8.0f | %s\n",
+          c.name.c_str(), b.label.c_str(), b.slices, b.knots, med("scan"), med("saw"), med("write"),
+          med("checksum"), med("report"), dec_text, *std::min_element(b.wall.begin(), b.wall.end()),
+          median(b.wall), b.peak, runs.c_str());
     }
-    // The report stage is measured by sawyer run itself and listed after "write".
-    auto med = [&](const char* s) { return median(stage[s]); };
-    std::string runs;
-    for (double w : wall) {
-      char b[16];
-      std::snprintf(b, sizeof b, "%.2f ", w);
-      runs += b;
+    if (builds.size() == 2) {
+      const double base = median(builds[1].wall);
+      const double dec = median(builds[0].decision);
+      char line[256];
+      std::snprintf(line, sizeof line,
+                    "%-14s whole run %.2f× the baseline's (target ≤ 0.76), decision %.2f× the "
+                    "baseline's whole run (target ≤ 0.46)",
+                    c.name.c_str(), median(builds[0].wall) / base, dec >= 0 ? dec / base : -1.0);
+      ratio_lines.push_back(line);
     }
-    std::printf("%-14s %7d %6d | %6.2f %6.2f %6.2f %8.2f %6.2f | %7.2f %7.2f %8.0f | %s\n",
-                c.name.c_str(), slices, knots, med("scan"), med("saw"), med("write"),
-                med("checksum"), med("report"), *std::min_element(wall.begin(), wall.end()),
-                median(wall), peak, runs.c_str());
   }
   std::printf(
-      "stages: medians of %d runs (run.json); wall: the whole command, best and median; "
-      "target ≤ 5 s\n",
+      "stages: medians of %d runs (run.json); decision: run.json's time to the decision (the "
+      "position printed), median; wall: the whole command, best and median\n",
       repeat);
+  for (const std::string& l : ratio_lines) std::printf("%s\n", l.c_str());
   return 0;
 }

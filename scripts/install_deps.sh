@@ -5,7 +5,9 @@
 set -euo pipefail
 
 # python3-scipy, -pil and -pydicom: bench/real_slices.py and the RealSlices test (the real-CT
-# check's case maker and scorer, in ../shared/realdata when it is there).
+# check's case maker and scorer, in ../shared/realdata when it is there). valgrind: the
+# performance gate (bench/perf_gate, the PerfGate test) counts instructions under callgrind, and
+# its callgrind.h gives the build its stage marks.
 PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev
@@ -14,6 +16,7 @@ PACKAGES=(
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   xvfb xauth poppler-utils chromium fonts-dejavu-core sqlite3 clang-format git
   blender python3-numpy python3-scipy python3-pil python3-pydicom
+  valgrind
 )
 
 missing=()

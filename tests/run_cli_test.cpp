@@ -103,6 +103,16 @@ TEST(RunCli, WritesScanSawingReportAndRegistersTheLog) {
   ASSERT_GE(run["stages"].size(), 2u);
   EXPECT_EQ(run["stages"][0]["name"], "scan");
   EXPECT_EQ(run["stages"][1]["name"], "saw");
+  // The decision (scan and saw) comes before the files and the report (issue 42): run.json
+  // keeps its time apart from the whole run's, and the summary prints both.
+  ASSERT_TRUE(run.contains("time")) << run.dump(1);
+  const double to_decision = run["time"]["to_decision_s"].get<double>();
+  const double total = run["time"]["total_s"].get<double>();
+  EXPECT_GE(to_decision,
+            run["stages"][0]["seconds"].get<double>() + run["stages"][1]["seconds"].get<double>());
+  EXPECT_LT(to_decision, total);
+  EXPECT_LT(out.find("position: rot"), out.find("report  "));
+  EXPECT_NE(out.find("(the decision at "), std::string::npos) << out;
   // The scan's QA verdict trusts this scan: run.json says so, and so does the summary.
   ASSERT_TRUE(run.contains("qa")) << run.dump(1);
   EXPECT_EQ(run["qa"]["trusted"], true) << run["qa"].dump(1);

@@ -38,7 +38,7 @@ void print_log_line(const ct::RunOutcome& run) {
 void print_summary_end(const ct::RunOutcome& run, bool no_report) {
   std::printf("time:");
   for (const auto& s : run.stages) std::printf(" %s %.2f s,", s.name.c_str(), s.seconds);
-  std::printf(" total %.2f s\n", run.seconds);
+  std::printf(" total %.2f s (the decision at %.2f s)\n", run.seconds, run.seconds_to_decision);
   std::printf("memory: peak %.0f MB; planned %s\n", ct::peak_rss_mb(),
               run.scan.memory.describe().c_str());
   if (!run.db.empty())

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/instruction_count.h"
 #include "sawyer/core/output_guard.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/register/ct_checksum.h"
@@ -75,6 +76,8 @@ report::RunRecord run_record(const RunJobOptions& c, const RunOutcome& run,
   in.prices = c.names.prices;
   in.position = c.names.position;
   in.stages = run.stages;
+  in.seconds_to_decision = run.seconds_to_decision;
+  in.seconds_total = run.seconds;
   return r;
 }
 
@@ -196,6 +199,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   if (!lock) return lock.error();
 
   std::vector<Stage>& stages = run->stages;
+  mark_stage_end("setup");
   auto t = Clock::now();
   ScanJobOptions scan_options = c.scan;
   scan_options.report_mb = c.no_report ? 0.0 : kReportMemoryMb;
@@ -229,6 +233,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
     if (!run->not_sawn) return sawn.error().with_context(log.id);
   }
   stages.push_back({"saw", since(t), peak_rss_mb()});
+  mark_stage_end("saw");
   if (run->sawn) {
     const sawing::SawingOutcome& out = run->outcome();
     stage_done(
@@ -241,6 +246,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
                note_text("not sawn: the pattern needs %.1f mm, the log has %.1f mm",
                          run->not_sawn->needed_diameter_mm, run->not_sawn->usable_diameter_mm));
   }
+  run->seconds_to_decision = since(t_all);
 
   std::string checksum;
   double report_seconds = 0;
@@ -271,6 +277,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
     if (Status w = write_scan_extras(scan, c.scan, tmp / "scan"); !w) return w;
     const double write_seconds = since(t_write);
     const double write_peak_mb = peak_rss_mb();
+    mark_stage_end("write");
     release_written_detail(run->scan.scan);
     if (!c.no_report) {
       // The report saws the boards again from the files; the run's own sawing tables (per stem
@@ -285,12 +292,14 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
       if (!files) return files.error();
       run->report = files.value();
       report_seconds = since(t);
+      mark_stage_end("report");
       stage_done("report", report_seconds,
                  note_text("%d pages, %zu images", run->report.pages, run->report.images.size()));
     }
     // run.json again with the times of the work done since (the report shows scan and saw).
     stages.push_back({"write", write_seconds, write_peak_mb});
     if (!c.no_report) stages.push_back({"report", report_seconds, peak_rss_mb()});
+    run->seconds = since(t_all);
     if (Status w =
             report::write_run_file(run_record(c, *run, source, checksum, date), tmp / "run.json");
         !w)

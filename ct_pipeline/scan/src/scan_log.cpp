@@ -6,6 +6,7 @@
 #include <string>
 #include <utility>
 
+#include "sawyer/core/instruction_count.h"
 #include "sawyer/core/process_memory.h"
 
 namespace sawyer::ct {
@@ -27,6 +28,7 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
   });
   if (!stem) return stem.error();
   out.stem = std::move(stem.value());
+  mark_stage_end("stem");
   // The slices the stem pass found the log's outline on (those it would have kept), and the
   // QA's per-slice figures: what the rest needs of the records' radii, before they go.
   std::vector<char> has_log(out.stem.slices.size(), 0);
@@ -77,6 +79,7 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
     if (!knots) return knots.error();
     out.knots = std::move(knots.value());
     if (progress) progress("knots", 1, 1);
+    mark_stage_end("knots");
   } else {
     for (double r : view_radii)
       out.unrolled.push_back(UnrolledViewBuilder(src.geometry(), out.stem.stem, r).take());
@@ -98,6 +101,7 @@ Result<ScanResult> scan_log(SliceSource& src, const ScanOptions& options,
   const VolumeGeometry& g = src.geometry();
   place_in_scanner_frame(log, {g.origin.x, g.origin.y}, scanner_frame_of(g));
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  mark_stage_end("qa");
   return out;
 }
 

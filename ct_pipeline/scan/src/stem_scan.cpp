@@ -453,18 +453,29 @@ void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& rad
                       std::vector<bool>& valid) {
   const int n = static_cast<int>(radius.size());
   if (n == 0 || (from - to).norm() < 1e-9) return;
+  // The angles' cosines and sines, once per angle count and thread (the stem pass calls this
+  // for every slice and, in drop_z_outliers, four times more).
+  thread_local std::vector<Vec2> dirs;
+  if (static_cast<int>(dirs.size()) != n) {
+    dirs.resize(static_cast<size_t>(n));
+    for (int k = 0; k < n; ++k) {
+      const double w = kTwoPi * k / n;
+      dirs[static_cast<size_t>(k)] = {std::cos(w), std::sin(w)};
+    }
+  }
   // Points of the contour in the slice plane, then their azimuth and distance around `to`.
   struct Polar {
     double w, r;
   };
   std::vector<Polar> pts;
-  pts.reserve(n);
+  pts.reserve(static_cast<size_t>(n));
+  size_t first = 0;  // the point of smallest azimuth
   for (int k = 0; k < n; ++k) {
     if (!valid[k]) continue;
-    const double w = kTwoPi * k / n;
-    const Vec2 p{from.x + radius[k] * std::cos(w), from.y + radius[k] * std::sin(w)};
-    const Vec2 d = p - to;
+    const Vec2& u = dirs[static_cast<size_t>(k)];
+    const Vec2 d = Vec2{from.x + radius[k] * u.x, from.y + radius[k] * u.y} - to;
     pts.push_back({wrap_angle(std::atan2(d.y, d.x)), d.norm()});
+    if (pts.back().w < pts[first].w) first = pts.size() - 1;
   }
   std::vector<double> out(n, 0.0);
   std::vector<bool> ok(n, false);
@@ -473,17 +484,21 @@ void recentre_contour(const Vec2& from, const Vec2& to, std::vector<double>& rad
     valid = ok;
     return;
   }
-  std::sort(pts.begin(), pts.end(), [](const Polar& a, const Polar& b) { return a.w < b.w; });
+  // Seen from a point inside the outline, the azimuths follow the contour's order: turned to
+  // start at the smallest, they are sorted already. Sorted here only when they are not.
+  std::rotate(pts.begin(), pts.begin() + static_cast<long>(first), pts.end());
+  auto by_w = [](const Polar& a, const Polar& b) { return a.w < b.w; };
+  if (!std::is_sorted(pts.begin(), pts.end(), by_w)) std::sort(pts.begin(), pts.end(), by_w);
   // Linear interpolation in azimuth between consecutive contour points (circular). A gap wider
   // than 3 angular steps was a run of invalid angles: keep it invalid.
   const double max_gap = 3.0 * kTwoPi / n + 1e-9;
   const size_t m = pts.size();
+  size_t j = 0;  // the first point at or past azimuth w (w grows with k)
   for (int k = 0; k < n; ++k) {
     const double w = kTwoPi * k / n;
-    auto it = std::lower_bound(pts.begin(), pts.end(), w,
-                               [](const Polar& a, double v) { return a.w < v; });
-    const Polar& b = it == pts.end() ? pts.front() : *it;
-    const Polar& a = it == pts.begin() ? pts[m - 1] : *(it - 1);
+    while (j < m && pts[j].w < w) ++j;
+    const Polar& b = j == m ? pts.front() : pts[j];
+    const Polar& a = j == 0 ? pts[m - 1] : pts[j - 1];
     double span = b.w - a.w;
     if (span <= 0) span += kTwoPi;
     double t = w - a.w;

@@ -75,6 +75,14 @@ Result<RunInfo> parse_run(const Json& j) {
              s.contains("seconds") && s["seconds"].is_number() ? s["seconds"].get<double>() : -1.0,
              s.contains("peak_mb") && s["peak_mb"].is_number() ? s["peak_mb"].get<double>()
                                                                : -1.0});
+  if (auto t = j.find("time"); t != j.end() && t->is_object()) {
+    auto num = [&](const char* key) {
+      auto v = t->find(key);
+      return v != t->end() && v->is_number() ? v->get<double>() : -1.0;
+    };
+    r.seconds_to_decision = num("to_decision_s");
+    r.seconds_total = num("total_s");
+  }
   return r;
 }
 
@@ -132,6 +140,13 @@ std::string run_json_text(const RunRecord& run) {
     st.push_back(o);
   }
   j["stages"] = st;
+  // What the saw line waits for (the decision) apart from the whole run (bench/run_bench).
+  if (in.seconds_to_decision >= 0 || in.seconds_total >= 0) {
+    Ordered t = Ordered::object();
+    if (in.seconds_to_decision >= 0) t["to_decision_s"] = in.seconds_to_decision;
+    if (in.seconds_total >= 0) t["total_s"] = in.seconds_total;
+    j["time"] = t;
+  }
   return j.dump(1) + "\n";
 }
 

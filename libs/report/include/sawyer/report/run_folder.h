@@ -50,6 +50,10 @@ struct RunInfo {
     double peak_mb = -1;  // the process's peak resident memory by the stage's end (-1: unknown)
   };
   std::vector<Stage> stages;
+  // From the run's start to its decision (scan and saw done, the position printed), and to the
+  // last write of run.json (everything but the register's row and the folder's rename); -1:
+  // not given (a run.json of an older Sawyer).
+  double seconds_to_decision = -1, seconds_total = -1;
   // Set when the run scanned the log but did not saw it: the folder then has no sawing.json.
   std::optional<NotSawn> not_sawn;
 };

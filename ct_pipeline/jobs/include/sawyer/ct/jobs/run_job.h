@@ -82,6 +82,9 @@ struct RunOutcome {
   report::ReportFiles report;                  // empty with no_report
   std::filesystem::path out_dir, db;           // db: empty with no_register
   double seconds = 0;                          // the whole job
+  // From the job's start to the decision (scan and saw done, the decision line printed): what
+  // the saw line waits for. For a log that was not sawn, to the end of the sawing attempt.
+  double seconds_to_decision = 0;
   const LogModel& log() const { return scan.log(); }
   // Only when the log was sawn (not_sawn empty).
   const sawing::SawingOutcome& outcome() const { return *sawn; }
