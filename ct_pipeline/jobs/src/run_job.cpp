@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <future>
 #include <optional>
 #include <utility>
 
@@ -199,6 +200,17 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   if (!lock) return lock.error();
 
   std::vector<Stage>& stages = run->stages;
+  // The register's checksum of the scan's files runs beside the scan (it only reads them, and
+  // the scan leaves a core part idle): the decision does not wait for it (issue 42).
+  double checksum_seconds = 0;
+  std::future<Result<std::string>> checksum_job;
+  if (!c.no_register)
+    checksum_job = std::async(std::launch::async, [&c, &checksum_seconds] {
+      const auto t0 = Clock::now();
+      Result<std::string> sum = reg::ct_checksum(c.scan.input);
+      checksum_seconds = since(t0);
+      return sum;
+    });
   mark_stage_end("setup");
   auto t = Clock::now();
   ScanJobOptions scan_options = c.scan;
@@ -259,27 +271,33 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
       if (Status w = write_text_file_atomic(tmp / "sawing.json", saw_file.dump(1) + "\n"); !w)
         return w;
     }
-    if (!c.no_register) {
-      t = Clock::now();
-      Result<std::string> sum = reg::ct_checksum(c.scan.input);
+    if (checksum_job.valid()) {
+      Result<std::string> sum = checksum_job.get();
       if (!sum) return sum.error();
       checksum = sum.value();
-      stages.push_back({"checksum", since(t)});
+      stages.push_back({"checksum", checksum_seconds});
     }
     if (Status w =
             report::write_run_file(run_record(c, *run, source, checksum, date), tmp / "run.json");
         !w)
       return w;
-    // The maps and QA images first; then the scan's per-slice arrays and views, which are in
-    // those files now, are released, so that the report (the run's largest stage) does not
-    // stack on them (issue 24: the run's peak; writing them beside the report saved ~0.2 s).
-    const auto t_write = Clock::now();
-    if (Status w = write_scan_extras(scan, c.scan, tmp / "scan"); !w) return w;
-    const double write_seconds = since(t_write);
-    const double write_peak_mb = peak_rss_mb();
-    mark_stage_end("write");
-    release_written_detail(run->scan.scan);
-    if (!c.no_report) {
+    // The maps and QA images are drawn beside the report (issue 42: the report draws on one
+    // core for most of its time), then the scan's per-slice arrays and views, which are in those
+    // files now, are released.
+    double write_seconds = 0, write_peak_mb = 0;
+    auto write_extras = [&]() -> Status {
+      const auto t_write = Clock::now();
+      Status w = write_scan_extras(scan, c.scan, tmp / "scan");
+      write_seconds = since(t_write);
+      write_peak_mb = peak_rss_mb();
+      return w;
+    };
+    std::future<Status> extras;
+    if (c.no_report) {
+      if (Status w = write_extras(); !w) return w;
+      mark_stage_end("write");
+    } else {
+      extras = std::async(std::launch::async, write_extras);
       // The report saws the boards again from the files; the run's own sawing tables (per stem
       // sample) would only sit beside its own (issue 24: the run's peak).
       if (run->sawn) run->sawn->saw_log.release_tables();
@@ -292,10 +310,12 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
       if (!files) return files.error();
       run->report = files.value();
       report_seconds = since(t);
+      if (Status w = extras.get(); !w) return w;
       mark_stage_end("report");
       stage_done("report", report_seconds,
                  note_text("%d pages, %zu images", run->report.pages, run->report.images.size()));
     }
+    release_written_detail(run->scan.scan);
     // run.json again with the times of the work done since (the report shows scan and saw).
     stages.push_back({"write", write_seconds, write_peak_mb});
     if (!c.no_report) stages.push_back({"report", report_seconds, peak_rss_mb()});

@@ -89,7 +89,9 @@ struct Grid {
   // normalised radius u [(i·2 + c)·nb + b] (NaN where none; see to_contrast): contrast + level
   // gives the HU back.
   int nb = 0;
-  double du = 0.25;
+  // The bin width, a power of two so that dividing by it is multiplying by kInvDu, exactly
+  // (bin_of runs per voxel, twice in to_contrast).
+  static constexpr double du = 0.25, kInvDu = 1.0 / du;
   std::vector<float> level;
   // Outline-normalised radius of shell j at (i, k): the pith distance scaled so that the
   // outline sits at the slice's mean outline radius. Annual rings follow the outline (a log's
@@ -98,7 +100,7 @@ struct Grid {
     const float o = outer[static_cast<size_t>(i) * nw + k];
     return o > 0 ? r(j) * outer_mean[static_cast<size_t>(i)] / o : r(j);
   }
-  int bin_of(double u) const { return std::clamp(static_cast<int>(u / du), 0, nb - 1); }
+  int bin_of(double u) const { return std::clamp(static_cast<int>(u * kInvDu), 0, nb - 1); }
   float level_at(int i, int c, int j, int k) const {
     return level[(static_cast<size_t>(i) * 2 + c) * nb + bin_of(u_of(i, j, k))];
   }
@@ -126,6 +128,30 @@ struct Grid {
     if (j < heart_in[q]) return 0;
     if (j < sap_in[q]) return -1;
     return j < out[q] ? 1 : -1;
+  }
+};
+
+// One slice of a Grid, for the per-voxel loops: its azimuths' class borders and outline
+// radius, and u (Grid::u_of) from a shell's radius rj and rj · outer_mean computed once per
+// shell. The same numbers as Grid::wood_class and Grid::u_of.
+struct SliceView {
+  const std::int16_t *heart_in, *sap_in, *out;
+  const float* outer;
+  double outer_mean;
+  SliceView(const Grid& g, int i)
+      : heart_in(&g.heart_in[static_cast<size_t>(i) * g.nw]),
+        sap_in(&g.sap_in[static_cast<size_t>(i) * g.nw]),
+        out(&g.out[static_cast<size_t>(i) * g.nw]),
+        outer(&g.outer[static_cast<size_t>(i) * g.nw]),
+        outer_mean(g.outer_mean[static_cast<size_t>(i)]) {}
+  int wood_class(int j, int k) const {
+    if (j < heart_in[k]) return 0;
+    if (j < sap_in[k]) return -1;
+    return j < out[k] ? 1 : -1;
+  }
+  double u(double rj, double rj_outer_mean, int k) const {
+    const float o = outer[k];
+    return o > 0 ? rj_outer_mean / o : rj;
   }
 };
 
@@ -424,13 +450,15 @@ void to_contrast(Grid& g, int threads, int half_window) {
   parallel_for(g.ns, threads, [&](int i) {
     std::vector<int> count(per_slice + 1, 0);
     std::vector<std::pair<int, std::int16_t>> smp;
+    const SliceView sv(g, i);
     for (int j = 0; j < g.nr; ++j) {
       const std::int16_t* row = &g.hu[g.at(i, j, 0)];
+      const double rj = g.r(j), rom = rj * sv.outer_mean;
       // Every other azimuth is plenty for a median (and halves the cost of the pass).
       for (int k = 0; k < g.nw; k += stride) {
-        const int c = g.wood_class(i, j, k);
+        const int c = sv.wood_class(j, k);
         if (c < 0 || row[k] == kInvalid) continue;
-        const int b = c * g.nb + g.bin_of(g.u_of(i, j, k));
+        const int b = c * g.nb + g.bin_of(sv.u(rj, rom, k));
         smp.emplace_back(b, row[k]);
         ++count[static_cast<size_t>(b) + 1];
       }
@@ -479,12 +507,19 @@ void to_contrast(Grid& g, int threads, int half_window) {
   });
   g.level = std::move(smooth);
   parallel_for(g.ns, threads, [&](int i) {
+    const SliceView sv(g, i);
+    const float* lv = &g.level[static_cast<size_t>(i) * 2 * g.nb];
     for (int j = 0; j < g.nr; ++j) {
       std::int16_t* row = &g.hu[g.at(i, j, 0)];
+      const double rj = g.r(j), rom = rj * sv.outer_mean;
       for (int k = 0; k < g.nw; ++k) {
-        const int c = g.wood_class(i, j, k);
-        const float l = c < 0 ? kNone : g.level_at(i, c, j, k);
-        if (row[k] == kInvalid || std::isnan(l)) {
+        const int c = sv.wood_class(j, k);
+        if (c < 0 || row[k] == kInvalid) {
+          row[k] = kInvalid;
+          continue;
+        }
+        const float l = lv[c * g.nb + g.bin_of(sv.u(rj, rom, k))];
+        if (std::isnan(l)) {
           row[k] = kInvalid;
           continue;
         }
