@@ -111,19 +111,19 @@ std::string scan_brief(const ScanResult& scan, const std::string& input) {
   int outliers = 0;
   for (const auto& r : s.slices) outliers += r.pith_outlier;
   char line[1024];
-  std::snprintf(
-      line, sizeof line,
-      "scanned %s: %zu slices in %.2f s, %.0f slices/s on %d threads; stem %d samples "
-      "of %.1f mm%s; %d refined piths rejected as outliers; %zu knots in %.2f s "
-      "(detection %.2f s in %d window%s: unroll %.2f (reading %.2f), contrast %.2f, segment %.2f, track %.2f, "
-      "follow %.2f; "
-      "fits %.2f s; %zu candidates not fitted)",
-      input.c_str(), s.slices.size(), s.seconds, s.slices_per_second(), s.threads,
-      s.stem.slice_count(), s.stem.dz_mm, s.stem.heartwood.empty() ? "" : " with heartwood",
-      outliers, ks.knots.size(), ks.seconds, ks.seconds_detect, ks.detect.windows,
-      ks.detect.windows == 1 ? "" : "s", ks.detect.unroll_s, ks.detect.read_s, ks.detect.contrast_s,
-      ks.detect.segment_s, ks.detect.track_s, ks.detect.follow_s, ks.seconds_fit,
-      ks.rejected.size());
+  std::snprintf(line, sizeof line,
+                "scanned %s: %zu slices in %.2f s, %.0f slices/s on %d threads; stem %d samples "
+                "of %.1f mm%s; %d refined piths rejected as outliers; %zu knots in %.2f s "
+                "(detection %.2f s in %d window%s: unroll %.2f (reading %.2f), contrast %.2f, "
+                "segment %.2f, track %.2f, "
+                "follow %.2f; "
+                "fits %.2f s; %zu candidates not fitted)",
+                input.c_str(), s.slices.size(), s.seconds, s.slices_per_second(), s.threads,
+                s.stem.slice_count(), s.stem.dz_mm,
+                s.stem.heartwood.empty() ? "" : " with heartwood", outliers, ks.knots.size(),
+                ks.seconds, ks.seconds_detect, ks.detect.windows, ks.detect.windows == 1 ? "" : "s",
+                ks.detect.unroll_s, ks.detect.read_s, ks.detect.contrast_s, ks.detect.segment_s,
+                ks.detect.track_s, ks.detect.follow_s, ks.seconds_fit, ks.rejected.size());
   return std::string(line) + "\n" + qa_headline(scan.qa.verdict);
 }
 
