@@ -27,6 +27,9 @@ std::string outside(double v, double lo, double hi, const char* unit) {
   return num(v) + u + " is outside " + num(lo) + (lo < 0 ? " to " : "-") + num(hi) + u;
 }
 
+// check_range's test alone, for loops over many values (the name is built only on failure).
+bool in_range(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
+
 // The first value of `v` outside [lo, hi] (or not finite), as an error naming `where`.
 Status check_range(double v, const std::string& where, double lo, double hi, const char* unit) {
   if (!std::isfinite(v)) return Error(where, "not a finite number");
@@ -618,18 +621,19 @@ Status validate_stem(const Stem& s) {
       return Error("stem.heartwood", "needs one row per pith sample");
     for (size_t i = 0; i < s.heartwood.size(); ++i)
       for (size_t k = 0; k < s.heartwood[i].size(); ++k) {
-        if (s.heartwood[i][k] < 0) return Error(at("stem.heartwood", i, k), "must not be negative");
-        if (Status st = check_range(s.heartwood[i][k], at("stem.heartwood", i, k), 0,
-                                    lim::kMaxRadiusMm, "mm");
-            !st)
-          return st;
+        const double h = s.heartwood[i][k];
+        if (h < 0) return Error(at("stem.heartwood", i, k), "must not be negative");
+        // The value's name only for a message: building it for every value cost more than the
+        // rest of the check (a 4 m log's 290 000 values on every read and write of log.json).
+        if (!in_range(h, 0, lim::kMaxRadiusMm))
+          return check_range(h, at("stem.heartwood", i, k), 0, lim::kMaxRadiusMm, "mm");
       }
   }
   if (!s.bark_mm.empty() && s.bark_mm.size() != s.pith.size())
     return Error("stem.bark_mm", "needs one value per pith sample");
   for (size_t i = 0; i < s.bark_mm.size(); ++i)
-    if (Status st = check_range(s.bark_mm[i], at("stem.bark_mm", i), 0, lim::kMaxBarkMm, "mm"); !st)
-      return st;
+    if (!in_range(s.bark_mm[i], 0, lim::kMaxBarkMm))
+      return check_range(s.bark_mm[i], at("stem.bark_mm", i), 0, lim::kMaxBarkMm, "mm");
   return Status::Ok();
 }
 
