@@ -44,6 +44,25 @@ TEST(RenderShaders, ContextsOnOneDisplayOutliveEachOther) {
   EXPECT_TRUE(p.ok()) << p.error().message();
 }
 
+// A context made ahead on another thread (what `sawyer run` does for its report while it
+// writes the files) is current on the thread that takes it and builds programs there; one that
+// nobody takes is dropped cleanly.
+TEST(RenderShaders, APrewarmedContextIsTakenCurrentOnTheTakersThread) {
+  prewarm_headless_context();
+  prewarm_headless_context();  // a second call while one waits does nothing
+  auto taken = create_headless_context();
+  ASSERT_TRUE(taken.ok()) << taken.error().message();
+  EXPECT_NE(describe_current_context().find("OpenGL "), std::string::npos);
+  Result<ShaderProgram> p = ShaderProgram::build("wood.vert", "wood.frag", {"WOOD_INDEX 1"});
+  EXPECT_TRUE(p.ok()) << p.error().message();
+  prewarm_headless_context();
+  drop_prewarmed_headless_context();
+  drop_prewarmed_headless_context();  // nothing left: nothing happens
+  ASSERT_TRUE(taken.value()->make_current());  // the dropped one took nothing with it
+  Result<ShaderProgram> q = ShaderProgram::build("wood.vert", "wood.frag", {});
+  EXPECT_TRUE(q.ok()) << q.error().message();
+}
+
 TEST(RenderShaders, EmbeddedFilesArePresent) {
   const std::vector<std::string> names = embedded_shader_names();
   for (const char* f : {"wood_field.glsl", "wood_log_data.glsl", "wood.vert", "wood.frag"})

@@ -15,6 +15,7 @@
 #include "sawyer/core/output_guard.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/register/ct_checksum.h"
+#include "sawyer/render/gl_context.h"
 #include "sawyer/register/log_register.h"
 #include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/sawing_file.h"
@@ -200,6 +201,11 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   if (!lock) return lock.error();
 
   std::vector<Stage>& stages = run->stages;
+  // A GL context made ahead for the report and not taken (an error on the way) is dropped
+  // before returning.
+  struct DropContext {
+    ~DropContext() { render::drop_prewarmed_headless_context(); }
+  } drop_context;
   // The register's checksum of the scan's files runs beside the scan (it only reads them, and
   // the scan leaves a core part idle): the decision does not wait for it (issue 42).
   double checksum_seconds = 0;
@@ -259,6 +265,10 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
                          run->not_sawn->needed_diameter_mm, run->not_sawn->usable_diameter_mm));
   }
   run->seconds_to_decision = since(t_all);
+  // The report's GL context is made while the files are written on one core (loading the GL
+  // driver keeps the dynamic loader busy ~0.3 s); not beside the scan, which the decision waits
+  // for and which keeps both cores busy.
+  if (!c.no_report) render::prewarm_headless_context();
 
   std::string checksum;
   double report_seconds = 0;

@@ -5,6 +5,7 @@
 #include <EGL/eglext.h>
 
 #include <cstring>
+#include <future>
 #include <iostream>
 #include <map>
 #include <mutex>
@@ -159,7 +160,9 @@ std::string describe_current_context() {
          reinterpret_cast<const char*>(renderer);
 }
 
-Result<std::unique_ptr<GlContext>> create_headless_context(const HeadlessContextOptions& options) {
+namespace {
+
+Result<std::unique_ptr<GlContext>> make_headless_context(const HeadlessContextOptions& options) {
   const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
   auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
       eglGetProcAddress("eglGetPlatformDisplayEXT"));
@@ -207,6 +210,53 @@ Result<std::unique_ptr<GlContext>> create_headless_context(const HeadlessContext
   for (const std::string& t : tried) why += (why.empty() ? "" : "; ") + t;
   return Error("headless OpenGL",
                "no EGL context (" + (why.empty() ? "no EGL platform" : why) + ")");
+}
+
+}  // namespace
+
+namespace {
+std::mutex g_prewarm_mutex;
+std::future<std::unique_ptr<GlContext>> g_prewarm;  // guarded by g_prewarm_mutex; null: failed
+
+bool default_options(const HeadlessContextOptions& o) {
+  const HeadlessContextOptions d;
+  return o.try_surfaceless == d.try_surfaceless && o.try_device == d.try_device &&
+         o.debug == d.debug;
+}
+}  // namespace
+
+void prewarm_headless_context() {
+  std::lock_guard<std::mutex> lock(g_prewarm_mutex);
+  if (g_prewarm.valid()) return;
+  g_prewarm = std::async(std::launch::async, []() -> std::unique_ptr<GlContext> {
+    Result<std::unique_ptr<GlContext>> c = make_headless_context({});
+    if (!c) return nullptr;  // the taker makes its own, and reports its own error
+    // Not current here any more, so that the taker's thread can make it current.
+    eglMakeCurrent(eglGetCurrentDisplay(), EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    return std::move(c.value());
+  });
+}
+
+// The context prewarm_headless_context() made, current on this thread; null when there is none
+// (none asked for, or its making failed: the caller then makes one and reports its own error).
+std::unique_ptr<GlContext> take_prewarmed() {
+  std::future<std::unique_ptr<GlContext>> waiting;
+  {
+    std::lock_guard<std::mutex> lock(g_prewarm_mutex);
+    waiting = std::move(g_prewarm);
+  }
+  if (!waiting.valid()) return nullptr;
+  std::unique_ptr<GlContext> ctx = waiting.get();
+  if (ctx && !ctx->make_current()) ctx.reset();
+  return ctx;
+}
+
+void drop_prewarmed_headless_context() { take_prewarmed().reset(); }
+
+Result<std::unique_ptr<GlContext>> create_headless_context(const HeadlessContextOptions& options) {
+  if (default_options(options))
+    if (std::unique_ptr<GlContext> ctx = take_prewarmed()) return ctx;
+  return make_headless_context(options);
 }
 
 }  // namespace sawyer::render
