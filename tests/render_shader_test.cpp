@@ -57,7 +57,7 @@ TEST(RenderShaders, APrewarmedContextIsTakenCurrentOnTheTakersThread) {
   EXPECT_TRUE(p.ok()) << p.error().message();
   prewarm_headless_context();
   drop_prewarmed_headless_context();
-  drop_prewarmed_headless_context();  // nothing left: nothing happens
+  drop_prewarmed_headless_context();           // nothing left: nothing happens
   ASSERT_TRUE(taken.value()->make_current());  // the dropped one took nothing with it
   Result<ShaderProgram> q = ShaderProgram::build("wood.vert", "wood.frag", {});
   EXPECT_TRUE(q.ok()) << q.error().message();

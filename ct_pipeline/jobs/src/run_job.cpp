@@ -15,8 +15,8 @@
 #include "sawyer/core/output_guard.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/register/ct_checksum.h"
-#include "sawyer/render/gl_context.h"
 #include "sawyer/register/log_register.h"
+#include "sawyer/render/gl_context.h"
 #include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/sawing_file.h"
 

@@ -43,10 +43,10 @@ Result<std::unique_ptr<GlContext>> create_headless_context(
 // Starts making a headless context (default options) on a thread of its own, for the next
 // create_headless_context() with default options to take instead of making one: loading the GL
 // driver (Mesa's, with LLVM: ~0.3 s of the dynamic loader on two cores) then overlaps earlier
-// work (`sawyer run` calls this once the decision is printed, while it writes the files). Calling it again while one
-// waits does nothing. A context made ahead and not taken must be dropped before the process
-// ends (drop_prewarmed_headless_context: the GL driver's own exit handlers run before static
-// destructors).
+// work (`sawyer run` calls this once the decision is printed, while it writes the files). Calling
+// it again while one waits does nothing. A context made ahead and not taken must be dropped before
+// the process ends (drop_prewarmed_headless_context: the GL driver's own exit handlers run before
+// static destructors).
 void prewarm_headless_context();
 void drop_prewarmed_headless_context();
 
