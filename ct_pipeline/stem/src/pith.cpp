@@ -860,8 +860,12 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
   std::array<std::vector<std::int64_t>, kLanes> hist;
   for (int l = 0; l < kLanes; ++l) hist[l].resize(nb_all + 2);
   std::vector<std::int64_t> packed(npx);
-  for (size_t i = 0; i < npx; ++i)
-    packed[i] = static_cast<std::int64_t>(std::lround(fv[i] * kQuantum)) * kCountOne + 1;
+  // Rounded half away from zero, as std::lround would, inline: fv · 64 is a float's value times
+  // a power of two, so adding one half is exact and truncating it rounds the same way.
+  for (size_t i = 0; i < npx; ++i) {
+    const double q = static_cast<double>(fv[i]) * kQuantum;
+    packed[i] = static_cast<std::int64_t>(q >= 0 ? q + 0.5 : q - 0.5) * kCountOne + 1;
+  }
   std::vector<double> m(nb_all), nbin(nb_all), sq(nb_all + 2);
   std::vector<std::int32_t> bins(npx);
   const float inv_bin = static_cast<float>(1.0 / kRingBinMm);
