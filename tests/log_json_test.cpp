@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/stats.h"
 #include "sawyer/test/test_util.h"
 
 namespace sawyer {
@@ -93,6 +94,46 @@ TEST(LogJson, RoundTripIsBitExact) {
   ASSERT_TRUE(back) << back.error().message();
   expect_identical(log, back.value());
   EXPECT_EQ(log_to_json(back.value()), text);
+}
+
+// The bark at every angle (Stem::bark, what a scan measures): written as a row per sample under
+// "bark_mm", read back bit-exact, each row's median its bark_mm; the one-figure form still reads.
+TEST(LogJson, BarkAtEveryAngleRoundTripsAndTheOneFigureFormStillReads) {
+  LogModel log = awkward_log();
+  for (int i = 0; i < log.stem.slice_count(); ++i) {
+    std::vector<double> row(7);
+    for (int k = 0; k < 7; ++k) row[k] = 2.0 + (i * 7 + k) % 9 / 3.0;
+    log.stem.bark.push_back(row);
+    log.stem.bark_mm[static_cast<size_t>(i)] = median(row);
+  }
+  const std::string text = log_to_json(log);
+  const Json j = Json::parse(text);
+  ASSERT_TRUE(j["stem"]["bark_mm"].is_array());
+  ASSERT_TRUE(j["stem"]["bark_mm"][0].is_array());
+  EXPECT_EQ(j["stem"]["bark_mm"][0].size(), 7u);
+  Result<LogModel> back = log_from_json(text);
+  ASSERT_TRUE(back) << back.error().message();
+  expect_identical(log, back.value());
+  EXPECT_EQ(back.value().stem.bark, log.stem.bark);
+  EXPECT_EQ(log_to_json(back.value()), text);
+  // A negative or absurd bark at one angle is refused, naming the sample and the angle.
+  Json bad = j;
+  bad["stem"]["bark_mm"][3][5] = -0.5;
+  Result<LogModel> refused = log_from_json(bad.dump());
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message().find("stem.bark_mm[3][5]"), std::string::npos)
+      << refused.error().message();
+  bad["stem"]["bark_mm"][3].erase(5);
+  refused = log_from_json(bad.dump());
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message().find("stem.bark_mm[3]"), std::string::npos)
+      << refused.error().message();
+  // Without rows: one figure per sample, as before.
+  log.stem.bark.clear();
+  Result<LogModel> scalars = log_from_json(log_to_json(log));
+  ASSERT_TRUE(scalars) << scalars.error().message();
+  EXPECT_TRUE(scalars.value().stem.bark.empty());
+  EXPECT_EQ(scalars.value().stem.bark_mm, log.stem.bark_mm);
 }
 
 TEST(LogJson, FileRoundTripIsBitExactAndLeavesNoTemporaryFiles) {

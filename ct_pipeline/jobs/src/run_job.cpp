@@ -131,6 +131,7 @@ void release_written_detail(ScanResult& scan) {
   std::vector<std::vector<double>>().swap(st.radius);
   std::vector<std::vector<double>>().swap(st.heartwood);
   std::vector<double>().swap(st.bark_mm);
+  std::vector<std::vector<double>>().swap(st.bark);
   std::vector<UnrolledView>().swap(scan.unrolled);
   std::vector<KnotTrace>().swap(scan.knots.traces);
   std::vector<KnotFitReport>().swap(scan.knots.fits);

@@ -13,6 +13,7 @@
 
 #include "sawyer/core/stats.h"
 #include "sawyer/ct/stem/pith_whorl.h"
+#include "sawyer/model/log_json.h"
 
 namespace sawyer::ct {
 
@@ -664,13 +665,13 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
           }
           rec.contour = detect_contour(job.slice, g, job.pith, co);
           rec.heartwood = detect_heartwood(job.slice, g, job.pith, rec.contour, ho);
-          // The stem keeps one bark figure per slice: the angles' own go (issue 24: 3 KB a
-          // slice held to the end of the pass).
+          // The slice's bark figure; the angles' own stay until the stem is built (the model's
+          // bark at every angle: a butt log's bark runs 2-10 mm round one section, and one
+          // figure put the real logs' bark surface 2 mm off).
           std::vector<double> bark;
           for (double b : rec.contour.bark_mm)
             if (b > 0) bark.push_back(b);
           rec.bark_mm = median(bark);
-          std::vector<double>().swap(rec.contour.bark_mm);
           if (options.volume) {
             double rmax = 0;
             for (size_t k = 0; k < rec.contour.radius.size(); ++k)
@@ -814,6 +815,19 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
     if (!refined.empty()) rec.pith_refined = refined[static_cast<size_t>(i)];
     rec.pith_outlier = outlier[static_cast<size_t>(i)];
     if (!rec.measured) continue;
+    // The bark's outer surface around the pith, as the outline is recentred below: bark per
+    // angle = that surface minus the outline (where the bark was not measured, the slice's
+    // figure).
+    if (rec.contour.bark_mm.size() == rec.contour.radius.size()) {
+      std::vector<double> over = rec.contour.radius;
+      std::vector<bool> over_ok = rec.contour.valid;
+      for (size_t k = 0; k < over.size(); ++k)
+        over[k] += rec.contour.bark_mm[k] > 0 ? rec.contour.bark_mm[k] : rec.bark_mm;
+      recentre_contour(rec.centre, rec.pith, over, over_ok);
+      for (size_t k = 0; k < over.size(); ++k)
+        if (!over_ok[k]) over[k] = -1;
+      rec.contour.bark_mm = std::move(over);  // now the bark surface's radius, -1: none
+    }
     recentre_contour(rec.centre, rec.pith, rec.contour.radius, rec.contour.valid);
     if (rec.heartwood.present)
       recentre_contour(rec.centre, rec.pith, rec.heartwood.radius, rec.heartwood.valid);
@@ -857,7 +871,28 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   }
   if (std::all_of(st.bark_mm.begin(), st.bark_mm.end(), [](double b) { return b <= 0; }))
     st.bark_mm.clear();
+  const std::vector<std::vector<double>> measured_radius = st.radius;
   scan.outline_z_outliers = drop_z_outliers(st.radius, st.pith);
+  // The bark at every angle: the bark surface minus the outline, where both were measured and
+  // the outline kept (an outline value the z filter replaced took in something that was not
+  // the log, and its bark surface with it: the slice's figure there).
+  if (!st.bark_mm.empty()) {
+    st.bark.assign(st.radius.size(), {});
+    for (int i = lo; i <= hi; ++i) {
+      StemSliceRecord& rec = scan.slices[i];
+      const size_t row = static_cast<size_t>(i - lo);
+      std::vector<double>& b = st.bark[row];
+      b.assign(static_cast<size_t>(st.n_angles), st.bark_mm[row]);
+      const std::vector<double>& surface = rec.contour.bark_mm;
+      if (surface.size() == b.size() && rec.contour.valid.size() == b.size())
+        for (size_t k = 0; k < b.size(); ++k)
+          if (surface[k] > 0 && rec.contour.valid[k] &&
+              st.radius[row][k] == measured_radius[row][k])
+            b[k] = std::clamp(surface[k] - st.radius[row][k], 0.0, log_limits::kMaxBarkMm);
+      std::vector<double>().swap(rec.contour.bark_mm);
+    }
+  }
+  for (int i = 0; i < n; ++i) std::vector<double>().swap(scan.slices[i].contour.bark_mm);
   if (!st.heartwood.empty()) {
     scan.heartwood_z_outliers = drop_z_outliers(st.heartwood, st.pith);
     for (size_t i = 0; i < st.heartwood.size(); ++i)  // the heartwood lies inside the log

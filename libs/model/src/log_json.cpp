@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "sawyer/core/file_util.h"
+#include "sawyer/core/stats.h"
 
 namespace sawyer {
 namespace {
@@ -190,12 +191,22 @@ Result<Stem> parse_stem(const Json& j) {
   Result<const Json*> bark = member(j, p, "bark_mm", false);
   if (!bark) return bark.error();
   if (bark.value()) {
-    Result<std::vector<double>> b = number_list(*bark.value(), "stem.bark_mm");
-    if (!b) return b.error();
-    if (b.value().size() != s.pith.size())
-      return Error("stem.bark_mm", "has " + std::to_string(b.value().size()) +
-                                       " values, expected one per pith sample");
-    s.bark_mm = std::move(b).value();
+    const Json& bj = *bark.value();
+    if (bj.is_array() && !bj.empty() && bj.front().is_array()) {
+      // A row per sample: the bark at every angle (Stem::bark), each row's median its bark_mm.
+      Result<std::vector<std::vector<double>>> rows =
+          rows_at(bj, "stem.bark_mm", s.pith.size(), s.n_angles);
+      if (!rows) return rows.error();
+      s.bark = std::move(rows).value();
+      for (const std::vector<double>& row : s.bark) s.bark_mm.push_back(median(row));
+    } else {
+      Result<std::vector<double>> b = number_list(bj, "stem.bark_mm");
+      if (!b) return b.error();
+      if (b.value().size() != s.pith.size())
+        return Error("stem.bark_mm", "has " + std::to_string(b.value().size()) +
+                                         " values, expected one per pith sample");
+      s.bark_mm = std::move(b).value();
+    }
   }
   return s;
 }
@@ -408,7 +419,12 @@ std::string log_to_json(const LogModel& log) {
   stem["pith"] = std::move(pith);
   stem["radius"] = rows_to_json(log.stem.radius);
   if (log.stem.has_heartwood()) stem["heartwood"] = rows_to_json(log.stem.heartwood);
-  if (!log.stem.bark_mm.empty()) stem["bark_mm"] = log.stem.bark_mm;
+  // The bark at every angle where it is known (a row per sample, like radius), else one figure
+  // per sample.
+  if (!log.stem.bark.empty())
+    stem["bark_mm"] = rows_to_json(log.stem.bark);
+  else if (!log.stem.bark_mm.empty())
+    stem["bark_mm"] = log.stem.bark_mm;
   j["stem"] = std::move(stem);
   Json knots = Json::array();
   for (const Knot& k : log.knots) {
@@ -634,6 +650,17 @@ Status validate_stem(const Stem& s) {
   for (size_t i = 0; i < s.bark_mm.size(); ++i)
     if (!in_range(s.bark_mm[i], 0, lim::kMaxBarkMm))
       return check_range(s.bark_mm[i], at("stem.bark_mm", i), 0, lim::kMaxBarkMm, "mm");
+  if (!s.bark.empty()) {
+    if (s.bark.size() != s.pith.size())
+      return Error("stem.bark_mm", "needs one row per pith sample");
+    for (size_t i = 0; i < s.bark.size(); ++i) {
+      if (static_cast<int>(s.bark[i].size()) != s.n_angles)
+        return Error(at("stem.bark_mm", i), "needs n_angles values");
+      for (size_t k = 0; k < s.bark[i].size(); ++k)
+        if (!in_range(s.bark[i][k], 0, lim::kMaxBarkMm))
+          return check_range(s.bark[i][k], at("stem.bark_mm", i, k), 0, lim::kMaxBarkMm, "mm");
+    }
+  }
   return Status::Ok();
 }
 

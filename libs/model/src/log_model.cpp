@@ -216,6 +216,7 @@ Stem resample_stem(const Stem& stem, double max_step_mm) {
   out.dz_mm = n * stem.dz_mm / m;
   out.z0_mm = stem.z_begin() + 0.5 * out.dz_mm;
   const bool heart = stem.has_heartwood(), bark = !stem.bark_mm.empty();
+  const bool bark_rows = !stem.bark.empty();
   const double per = static_cast<double>(n) / m;  // old samples under one new one
   for (int j = 0; j < m; ++j) {
     // The new sample's cell in old-sample units, [a, b), and each old cell's share of it.
@@ -225,6 +226,7 @@ Stem resample_stem(const Stem& stem, double max_step_mm) {
     Vec2 pith;
     std::vector<double> radius(static_cast<size_t>(stem.n_angles), 0.0);
     std::vector<double> heartwood(heart ? radius.size() : 0, 0.0);
+    std::vector<double> bark_row(bark_rows ? radius.size() : 0, 0.0);
     double weight = 0, bark_sum = 0, bark_weight = 0;
     for (int i = i0; i <= i1; ++i) {
       const double w = std::min<double>(b, i + 1) - std::max<double>(a, i);
@@ -236,14 +238,18 @@ Stem resample_stem(const Stem& stem, double max_step_mm) {
         radius[k] += w * stem.radius[idx][k];
       for (size_t k = 0; k < heartwood.size() && k < stem.heartwood[idx].size(); ++k)
         heartwood[k] += w * stem.heartwood[idx][k];
+      for (size_t k = 0; k < bark_row.size() && k < stem.bark[idx].size(); ++k)
+        bark_row[k] += w * stem.bark[idx][k];
       if (bark && stem.bark_mm[idx] > 0) bark_sum += w * stem.bark_mm[idx], bark_weight += w;
     }
     out.pith.push_back((1.0 / weight) * pith);
     for (double& r : radius) r /= weight;
     for (double& r : heartwood) r /= weight;
+    for (double& r : bark_row) r /= weight;
     out.radius.push_back(std::move(radius));
     if (heart) out.heartwood.push_back(std::move(heartwood));
     if (bark) out.bark_mm.push_back(bark_weight > 0 ? bark_sum / bark_weight : 0.0);
+    if (bark_rows) out.bark.push_back(std::move(bark_row));
   }
   return out;
 }

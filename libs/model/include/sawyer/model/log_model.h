@@ -39,6 +39,10 @@ struct Stem {
   std::vector<std::vector<double>> heartwood;
   // Optional bark thickness per height, mm; empty when unknown.
   std::vector<double> bark_mm;
+  // Optional bark thickness at every angle [height][angle], mm, where the scan measured it
+  // around the log (a butt log's bark runs 2-10 mm round one section); bark_mm is then each
+  // row's median. Empty when only bark_mm is known.
+  std::vector<std::vector<double>> bark;
 
   int slice_count() const { return static_cast<int>(pith.size()); }
   double z_at(int i) const { return z0_mm + i * dz_mm; }
