@@ -871,7 +871,9 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   }
   if (std::all_of(st.bark_mm.begin(), st.bark_mm.end(), [](double b) { return b <= 0; }))
     st.bark_mm.clear();
-  const std::vector<std::vector<double>> measured_radius = st.radius;
+  // The outline as measured, to tell which values the z filter replaces (only with bark).
+  const std::vector<std::vector<double>> measured_radius =
+      st.bark_mm.empty() ? std::vector<std::vector<double>>{} : st.radius;
   scan.outline_z_outliers = drop_z_outliers(st.radius, st.pith);
   // The bark at every angle: the bark surface minus the outline, where both were measured and
   // the outline kept (an outline value the z filter replaced took in something that was not
@@ -889,7 +891,6 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
           if (surface[k] > 0 && rec.contour.valid[k] &&
               st.radius[row][k] == measured_radius[row][k])
             b[k] = std::clamp(surface[k] - st.radius[row][k], 0.0, log_limits::kMaxBarkMm);
-      std::vector<double>().swap(rec.contour.bark_mm);
     }
   }
   for (int i = 0; i < n; ++i) std::vector<double>().swap(scan.slices[i].contour.bark_mm);
