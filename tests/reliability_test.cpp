@@ -365,6 +365,32 @@ TEST(ExitCodes, CommandLineErrorsExitOneHelpExitsZero) {
   EXPECT_EQ(test::run_sawyer("--version", &out), 0) << out;
 }
 
+// --- long output names (issue 44) ---------------------------------------------------------
+
+TEST(LongNames, AnOutputNameUpToTheFileSystemLimitIsWritten) {
+  test::TempDir dir;
+  std::string out;
+  // A 250-byte file name (the temporary's ".<name>.tmp<hex>" would be 271) and a 255-byte one;
+  // a 250-byte folder name for the writers that stage a folder beside it.
+  const std::string name250 = std::string(245, 'l') + ".json";
+  const std::string name255 = std::string(250, 'k') + ".json";
+  const std::string log = test::quoted(test::sample_log("pine_8") / "log.json");
+  for (const std::string& name : {name250, name255}) {
+    EXPECT_EQ(test::run_sawyer("saw " + log + " -q -o " + test::quoted(dir / name), &out), 0)
+        << out;
+    EXPECT_TRUE(fs::is_regular_file(dir / name)) << name.size();
+    // Written again over its own output (the lock and the temporaries fit as well).
+    EXPECT_EQ(test::run_sawyer("convert " + log + " -o " + test::quoted(dir / name), &out), 0)
+        << out;
+  }
+  const std::string folder = std::string(250, 'm');
+  EXPECT_EQ(test::run_sawyer("convert " + log + " -o " + test::quoted(dir / folder), &out), 0)
+      << out;
+  EXPECT_TRUE(fs::exists(dir / folder / "sawyer_maps.json")) << out;
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename().string()[0] == '.', false) << "left behind: " << e.path();
+}
+
 // --- messages and hangs ----------------------------------------------------------------------
 
 TEST(Messages, ABinaryManifestIsRefusedWithoutEchoingItsBytes) {

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <system_error>
 
+#include "sawyer/core/file_util.h"
 #include "sawyer/core/interrupt.h"
 
 namespace sawyer::ct::detail {
@@ -20,11 +21,10 @@ Result<StagingDir> StagingDir::create(const fs::path& out) {
   if (ec) return Error(parent.string(), "cannot create folder: " + ec.message());
   if (fs::exists(out, ec) && !fs::is_directory(out, ec))
     return Error(out.string(), "exists and is not a folder; will not replace it");
-  static thread_local std::mt19937_64 rng{std::random_device{}()};
   for (int attempt = 0; attempt < 8; ++attempt) {
-    std::ostringstream name;
-    name << "." << out.filename().string() << ".tmp" << std::hex << rng();
-    const fs::path tmp = parent / name.str();
+    // A hidden sibling named as every writer names its temporaries (file_util.h), so a long
+    // output name still fits and a later run sweeps it when this one is killed.
+    const fs::path tmp = parent / temp_sibling(out).filename();
     if (fs::create_directory(tmp, ec)) {
       track_temp_path(tmp);  // removed if the process is interrupted (interrupt.h)
       return StagingDir(out, tmp);

@@ -5,8 +5,10 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <iomanip>
 #include <random>
 #include <sstream>
 #include <system_error>
@@ -18,12 +20,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-fs::path temp_sibling(const fs::path& path) {
-  static thread_local std::mt19937_64 rng{std::random_device{}()};
-  std::ostringstream name;
-  name << "." << path.filename().string() << ".tmp" << std::hex << rng();
-  return path.parent_path() / name.str();
-}
+// The longest tail a sibling adds after the stem: ".tmp", 16 hex digits, ".old".
+constexpr size_t kSiblingTailBytes = 4 + 16 + 4;
 
 // Closes the descriptor on every return path.
 struct Fd {
@@ -41,6 +39,35 @@ const char* kind_of(mode_t mode) {
 }
 
 }  // namespace
+
+std::string hidden_sibling_stem(const fs::path& path) {
+  const std::string name = path.filename().string();
+  if (1 + name.size() + kSiblingTailBytes <= kMaxFileNameBytes) return "." + name;
+  // FNV-1a over the whole name: two names that share the kept bytes still differ.
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  for (unsigned char c : name) {
+    h ^= c;
+    h *= 0x100000001b3ull;
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  // "." + kept + "~" + 16 hex + the tail fits; the cut falls before a UTF-8 continuation byte.
+  size_t keep = kMaxFileNameBytes - kSiblingTailBytes - 1 - 1 - 16;
+  while (keep > 0 && (static_cast<unsigned char>(name[keep]) & 0xC0) == 0x80) --keep;
+  std::string stem(1, '.');
+  stem.append(name, 0, keep);
+  stem += '~';
+  stem += hex;
+  return stem;
+}
+
+fs::path temp_sibling(const fs::path& path) {
+  static thread_local std::mt19937_64 rng{std::random_device{}()};
+  std::ostringstream name;
+  name << hidden_sibling_stem(path) << ".tmp" << std::hex << std::setw(16) << std::setfill('0')
+       << rng();
+  return path.parent_path() / name.str();
+}
 
 std::string line_of(const std::string& text, size_t byte) {
   size_t line = 1;

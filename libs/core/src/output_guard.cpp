@@ -11,6 +11,7 @@
 #include <fstream>
 #include <system_error>
 
+#include "sawyer/core/file_util.h"
 #include "sawyer/core/interrupt.h"
 
 namespace sawyer {
@@ -58,12 +59,10 @@ std::string where_of(const OutputRequest& req) {
   return req.option.empty() ? req.path.string() : req.option + " " + req.path.string();
 }
 
-// ".<name><suffix>": the hidden siblings (temporaries, lock) of an output.
+// ".<name><suffix>": the hidden siblings (temporaries, lock) of an output, the name shortened
+// as hidden_sibling_stem says.
 std::string hidden_sibling(const fs::path& p, const char* suffix) {
-  std::string s = ".";
-  s += p.filename().string();
-  s += suffix;
-  return s;
+  return hidden_sibling_stem(p) + suffix;
 }
 
 bool is_hex(const std::string& s) {

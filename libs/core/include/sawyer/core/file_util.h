@@ -30,6 +30,20 @@ std::string line_of(const std::string& text, size_t byte);
 // "1 MiB", "512 MiB", "1.5 KiB": a byte count for messages.
 std::string byte_size_text(std::uintmax_t bytes);
 
+// The longest file name most Linux file systems take (NAME_MAX of ext4, XFS, Btrfs, tmpfs).
+inline constexpr size_t kMaxFileNameBytes = 255;
+
+// ".<name>" for the hidden siblings an output at `path` gets while it is written: its
+// temporaries ".<name>.tmp<16 hex>" (and ".old" after them), its lock ".<name>.lock". A name too
+// long for those to fit in kMaxFileNameBytes (over 230 bytes) is shortened to its first bytes
+// (whole UTF-8 characters), '~' and 16 hex digits of a hash of the whole name, so an output
+// name up to the file system's limit can be written, and two long names that share their
+// first bytes still get siblings of their own.
+std::string hidden_sibling_stem(const std::filesystem::path& path);
+
+// A fresh temporary path beside `path`: hidden_sibling_stem(path) + ".tmp" + 16 random hex digits.
+std::filesystem::path temp_sibling(const std::filesystem::path& path);
+
 // Writes `text` to `path` atomically: a temporary file beside it, then a rename, so a failure
 // never leaves a half-written file under the final name.
 Status write_text_file_atomic(const std::filesystem::path& path, const std::string& text);
