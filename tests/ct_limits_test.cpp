@@ -13,12 +13,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <future>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "sawyer/ct/io/limits.h"
@@ -113,6 +115,31 @@ TEST(CtLimits, DicomHugePixelSpacingIsRefusedNamingFileAndValue) {
     expect_refused(tmp / "s",
                    {f.string() + ": Pixel Spacing \"" + value + "\"", "is outside 0.01-50 mm"});
   }
+}
+
+// Issue 44: a rescale no scanner writes was printed by `sawyer info`, which exited 0.
+TEST(CtLimits, DicomAbsurdRescaleIsRefusedNamingFileAndValue) {
+  for (const auto& [tag, value, needle] :
+       {std::tuple{std::uint16_t{0x1053}, "1e30", "Rescale slope 1e+30 is outside 0.0001-100000"},
+        std::tuple{std::uint16_t{0x1053}, "1e-9", "Rescale slope 1e-09 is outside"},
+        std::tuple{std::uint16_t{0x1052}, "-1e12", "Rescale intercept -1e+12 HU is outside"}}) {
+    TempDir tmp;
+    write_volume(tmp / "s", geometry(4, 2.0));
+    const fs::path f = dicom_file(tmp / "s", 3);
+    set_dicom_text(f, 0x0028, tag, value);
+    expect_refused(tmp / "s", {f.string() + ": " + needle, "no CT scanner writes it"});
+    std::string out;
+    EXPECT_EQ(test::run_sawyer("info " + test::quoted(tmp / "s"), &out), 1) << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_THAT(out, HasSubstr("sawyer: " + f.string() + ": " + needle)) << out;
+  }
+  // The slopes scanners do write still open (0.5 and 2, either sign of intercept).
+  TempDir tmp;
+  write_volume(tmp / "s", geometry(4, 2.0));
+  set_dicom_text(dicom_file(tmp / "s", 1), 0x0028, 0x1053, "0.5");
+  set_dicom_text(dicom_file(tmp / "s", 2), 0x0028, 0x1053, "2");
+  set_dicom_text(dicom_file(tmp / "s", 2), 0x0028, 0x1052, "-8192");
+  expect_opens(tmp / "s");
 }
 
 TEST(CtLimits, DicomSlicesAThousandthOfAMillimetreApartAreRefused) {

@@ -8,11 +8,15 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "sawyer/model/gran1_import.h"
 #include "sawyer/model/log_generator.h"
@@ -407,6 +411,178 @@ TEST(SawingLimits, FifoAndDeviceAsDataFilesDoNotHangTheCommand) {
     EXPECT_FALSE(fs::exists(dir / "sawing.json"));
   }
 }
+
+// ---- issue 44: inputs that ran for minutes, offsets far outside the log -------------------------
+
+// The bundled log with its knots copied (new ids, turned and shifted along the log) until there
+// are `n`.
+Json log_with_knots(int n) {
+  Json j = gran1_doc();
+  const Json base = j["knots"];
+  Json knots = Json::array();
+  for (int i = 0; i < n; ++i) {
+    Json k = base[static_cast<size_t>(i) % base.size()];
+    k["id"] = i;
+    k["omega0"] = std::fmod(k["omega0"].get<double>() + 0.7 * (i / base.size()), 2 * kPi);
+    k["z0"] = k["z0"].get<double>() + std::fmod(37.0 * i, 100.0) - 50.0;
+    knots.push_back(k);
+  }
+  j["knots"] = knots;
+  return j;
+}
+
+// A pattern of n edged boards 20 x 20 mm on a grid (3 mm kerfs), centred on the pith.
+Json grid_pattern(int n) {
+  Json boards = Json::array();
+  const int side = static_cast<int>(std::ceil(std::sqrt(n)));
+  for (int i = 0; i < n; ++i)
+    boards.push_back({{"name", "b" + std::to_string(i)},
+                      {"u_mm", 23.0 * (i % side - side / 2)},
+                      {"v_mm", 23.0 * (i / side - side / 2)},
+                      {"thickness_mm", 20},
+                      {"width_mm", 20},
+                      {"edged", true}});
+  return {{"format", "sawyer-pattern/1"}, {"name", "grid"}, {"kerf_mm", 3}, {"boards", boards}};
+}
+
+std::vector<std::string> listing(const fs::path& dir) {
+  std::vector<std::string> v;
+  for (const auto& e : fs::directory_iterator(dir)) v.push_back(e.path().filename().string());
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+// `sawyer saw` with `args`, bounded by `timeout` (a refusal must come long before it); returns
+// the exit code, stdout and stderr in *out.
+int saw_bounded(const std::string& args, std::string* out) {
+  return test::run_command(
+      memory_limit() + "timeout 300 " + test::quoted(test::sawyer_bin()) + " saw " + args + " 2>&1",
+      out);
+}
+
+TEST(LogJsonLimits, AbsurdKnotCountsAreRefusedBeforeAnyWork) {
+  // 100 000 knots (issue 44: `sawyer saw` was still running after a minute, at 1.1 GB).
+  test::TempDir dir;
+  test::write_file(dir / "log.json", log_with_knots(100000).dump());
+  const std::vector<std::string> before = listing(dir.path());
+  Result<LogModel> r = read_log_json(dir / "log.json");
+  ASSERT_FALSE(r);
+  EXPECT_THAT(r.error().message(),
+              HasSubstr("knots: has 100000 knots, more than the 10000 allowed"));
+  std::string out;
+  EXPECT_EQ(
+      saw_bounded(test::quoted(dir / "log.json") + " -q -o " + test::quoted(dir / "sawing.json"),
+                  &out),
+      1)
+      << out;
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_THAT(out, HasSubstr("log.json: knots: has 100000 knots, more than the 10000 allowed"));
+  EXPECT_EQ(listing(dir.path()), before) << "a refusal writes nothing";
+  // The most a model may hold still loads; one more is refused, by the reader and by validate().
+  Result<LogModel> most = log_from_json(log_with_knots(log_limits::kMaxKnots).dump());
+  ASSERT_TRUE(most) << most.error().message();
+  LogModel more = most.value();
+  more.knots.push_back(more.knots.back());
+  EXPECT_THAT(validate(more).error().message(), HasSubstr("more than the 10000 allowed"));
+}
+
+TEST(SawingLimits, ALogWithManyKnotsIsSawnAtEveryPosition) {
+  // 2000 knots on the bundled 4 m log (500 a metre, twenty times the real log's density; a 40 m
+  // log at 50 a metre has as many): sawn on the default grid like any log. The work is bounded
+  // by the knots (at most 10 000) times the positions (at most 10^6); `timeout` bounds the test.
+  test::TempDir dir;
+  test::write_file(dir / "log.json", log_with_knots(2000).dump());
+  std::string out;
+  ASSERT_EQ(
+      saw_bounded(test::quoted(dir / "log.json") + " -q -o " + test::quoted(dir / "sawing.json"),
+                  &out),
+      0)
+      << out;
+  std::ifstream in(dir / "sawing.json");
+  const Json saw = Json::parse(in);
+  EXPECT_EQ(saw["log"], "gran1_spruce");
+  size_t knots_on_boards = 0;
+  for (const Json& b : saw["boards"]) knots_on_boards += b["knots"].size();
+  EXPECT_GT(knots_on_boards, 100u) << "the boards carry the knots";
+  EXPECT_THAT(out, HasSubstr("2000 knots")) << out;
+}
+
+TEST(SawingLimits, AbsurdBoardCountsAreRefusedBeforeAnyWork) {
+  // 10 000 boards (issue 44: still running after a minute at 0.6 GB); the most allowed loads.
+  Result<sawing::Pattern> p = sawing::pattern_from_json(grid_pattern(10000).dump());
+  ASSERT_FALSE(p);
+  EXPECT_THAT(p.error().message(),
+              HasSubstr("boards: has 10000 boards, more than the 200 allowed"));
+  EXPECT_TRUE(sawing::pattern_from_json(grid_pattern(sawing::kMaxPatternBoards).dump()));
+  sawing::Pattern big = sawing::pattern_from_json(grid_pattern(200).dump()).value();
+  big.boards.push_back(big.boards.back());
+  big.boards.back().u_mm += 1000;
+  EXPECT_THAT(big.validate().error().message(), HasSubstr("201 boards, more than the 200"));
+  big.boards.pop_back();
+  big.boards.back().width_mm = 1e300;
+  EXPECT_THAT(big.validate().error().message(), HasSubstr("at most 3000 mm"));
+
+  test::TempDir dir;
+  test::write_file(dir / "p.json", grid_pattern(10000).dump());
+  const std::vector<std::string> before = listing(dir.path());
+  std::string out;
+  EXPECT_EQ(
+      saw_bounded(test::quoted(gran1_json()) + " -q --pattern " + test::quoted(dir / "p.json") +
+                      " -o " + test::quoted(dir / "sawing.json"),
+                  &out),
+      1)
+      << out;
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_THAT(out, HasSubstr("p.json: boards: has 10000 boards, more than the 200 allowed"));
+  EXPECT_EQ(listing(dir.path()), before);
+}
+
+TEST(SawingLimits, OffsetsOutsideTheLogAreRefusedNamingTheOption) {
+  // The bundled log's wood lies within about 140 mm of its centre line: a position or a grid
+  // reaching a metre from it saws nothing of the log.
+  test::TempDir dir;
+  const std::string log = test::quoted(gran1_json());
+  for (const auto& [opts, option] :
+       {std::pair{std::string("--position 0,1000"), std::string("--position: offset (1000, 0)")},
+        std::pair{std::string("--position 30,0,-400"), std::string("--position: offset (0, -400)")},
+        std::pair{std::string("--offsets 1000 --offset-step 10"),
+                  std::string("--offsets: 1000 mm")},
+        std::pair{std::string("--offsets-y 600 --offset-y-step 20"),
+                  std::string("--offsets-y: 600 mm")}}) {
+    std::string out;
+    EXPECT_EQ(saw_bounded(log + " -q " + opts + " -o " + test::quoted(dir / "sawing.json"), &out),
+              1)
+        << opts << "\n"
+        << out;
+    EXPECT_EQ(lines(out), 1u) << out;
+    EXPECT_THAT(out, HasSubstr(option)) << out;
+    EXPECT_THAT(out, HasSubstr("of the log's centre line")) << out;
+    EXPECT_FALSE(fs::exists(dir / "sawing.json"));
+  }
+  // Within the log: sawn.
+  std::string out;
+  EXPECT_EQ(
+      saw_bounded(log + " -q --position 10,20,-5 -o " + test::quoted(dir / "sawing.json"), &out), 0)
+      << out;
+}
+
+#ifdef SAWYER_HAVE_RENDER
+TEST(SawingLimits, RunRefusesOffsetsOutsideTheScanBeforeTheScan) {
+  // The scanned box of the small test scan is about 0.4 m across: an offset of 1.4 m is outside
+  // any log in it. Refused before a slice is read, nothing written.
+  test::TempDir dir;
+  const std::vector<std::string> before = listing(dir.path());
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("run " + test::quoted(test::gran1_40cm_ct()) + " -o " +
+                                 test::quoted(dir / "o") + " --position 0,1400 --no-register -q",
+                             &out),
+            1);
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_THAT(out, HasSubstr("--position: offset (1400, 0) mm")) << out;
+  EXPECT_THAT(out, HasSubstr("the scanned volume")) << out;
+  EXPECT_EQ(listing(dir.path()), before) << "no run folder";
+}
+#endif
 
 // ---- render sizes ------------------------------------------------------------------------------
 

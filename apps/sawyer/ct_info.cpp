@@ -57,9 +57,10 @@ void add_ct_options(CLI::App* cmd, CtCliOptions& o) {
       ->check(finite_range(ct::kMinSpacingMm, ct::kMaxSpacingMm, " mm"));
   cmd->add_option("--rescale-slope", o.rescale_slope,
                   "image stacks: HU = slope * value + intercept")
-      ->check(finite_range(-1e4, 1e4, "", 1e-4));
+      ->check(finite_range(-ct::kMaxAbsRescaleSlope, ct::kMaxAbsRescaleSlope, "",
+                           ct::kMinAbsRescaleSlope));
   cmd->add_option("--rescale-intercept", o.rescale_intercept, "image stacks: see --rescale-slope")
-      ->check(finite_range(-1e5, 1e5, " HU"));
+      ->check(finite_range(-ct::kMaxAbsRescaleIntercept, ct::kMaxAbsRescaleIntercept, " HU"));
   cmd->add_flag("--strict-z", o.strict_z,
                 "refuse uneven slice spacing or missing slices instead of resampling along z");
   cmd->add_flag("--allow-gaps", o.allow_gaps,

@@ -577,6 +577,7 @@ Result<std::unique_ptr<SliceSource>> build_source(const fs::path& folder, const 
                      "Rescale Intercept " + in_quotes(h.intercept_text) + " is not a number");
       s.intercept = *b;
     }
+    if (Status st = check_rescale(where, s.slope, s.intercept, "Rescale"); !st) return st.error();
     s.bits_allocated = h.bits_allocated;
     s.bits_stored = h.bits_stored;
     s.high_bit = (h.high_bit >= h.bits_stored - 1 && h.high_bit < h.bits_allocated)

@@ -31,6 +31,21 @@ Status check_spacing(const std::string& where, const std::string& what, double m
                           num6(kMaxSpacingMm) + " mm");
 }
 
+Status check_rescale(const std::string& where, double slope, double intercept,
+                     const std::string& what) {
+  const double a = std::abs(slope);
+  if (!(std::isfinite(slope) && a >= kMinAbsRescaleSlope && a <= kMaxAbsRescaleSlope))
+    return Error(where, what + " slope " + num6(slope) + " is outside " +
+                            num6(kMinAbsRescaleSlope) + "-" + num6(kMaxAbsRescaleSlope) +
+                            " (either sign; HU = slope * stored value + intercept): no CT "
+                            "scanner writes it");
+  if (!in_range(intercept, -kMaxAbsRescaleIntercept, kMaxAbsRescaleIntercept))
+    return Error(where, what + " intercept " + num6(intercept) + " HU is outside " +
+                            num6(-kMaxAbsRescaleIntercept) + " to " +
+                            num6(kMaxAbsRescaleIntercept) + " HU: no CT scanner writes it");
+  return Status::Ok();
+}
+
 Status check_geometry_limits(const std::string& where, const VolumeGeometry& g) {
   for (const auto& [what, size] : {std::pair{"columns", g.width}, std::pair{"rows", g.height}}) {
     if (size < 1 || size > kMaxImageSize)
@@ -71,6 +86,7 @@ Status check_geometry_limits(const std::string& where, const VolumeGeometry& g) 
                                 num6(kMinSpacingMm) + "-" + num6(kMaxSpacingMm) + " mm");
     }
   }
+  if (Status st = check_rescale(where, g.rescale_slope, g.rescale_intercept); !st) return st;
   for (double v : {g.origin.x, g.origin.y, g.origin.z}) {
     if (!in_range(v, -kMaxPositionMm, kMaxPositionMm))
       return Error(where, "origin (" + num6(g.origin.x) + ", " + num6(g.origin.y) + ", " +

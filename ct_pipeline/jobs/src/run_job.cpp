@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <future>
@@ -193,6 +194,16 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   // Then the scan is opened (headers only), then the output is checked.
   auto opened = open_scan(c.scan);
   if (!opened) return opened.error();
+  {
+    // The log lies inside the scanned box, so offsets longer than its diagonal saw nothing of
+    // it: refused now, before the scan (the log's own reach is checked once it is known).
+    const VolumeGeometry& g = opened.value()->geometry();
+    const double box =
+        std::sqrt(std::pow(g.width * g.spacing_x, 2) + std::pow(g.height * g.spacing_y, 2) +
+                  std::pow(g.z.empty() ? 0.0 : g.z.back() - g.z.front(), 2));
+    if (Status st = sawing::check_offsets_reach(su, box, "the scanned volume"); !st)
+      return st.error();
+  }
   // The output may replace only an empty folder or an earlier run folder, never the scan or a
   // folder around it; the lock makes a second run of the same output refuse at once.
   OutputRequest out_req{c.output, OutputKind::kRunFolder, {c.scan.input}, "RunJobOptions::output"};

@@ -548,7 +548,7 @@ Result<LogModel> model_from_json(const Json& j) {
   if (knots.value()->size() > static_cast<size_t>(lim::kMaxKnots))
     return Error("knots", "has " + std::to_string(knots.value()->size()) +
                               " knots, more than the " + std::to_string(lim::kMaxKnots) +
-                              " allowed");
+                              " allowed (a real log has at most a few hundred)");
   for (size_t i = 0; i < knots.value()->size(); ++i) {
     Result<Knot> k = parse_knot((*knots.value())[i], i);
     if (!k) return k.error();
@@ -738,7 +738,8 @@ Status validate(const LogModel& log) {
     if (Status st = validate_frame(*log.scanner_frame); !st) return st;
   if (log.knots.size() > static_cast<size_t>(lim::kMaxKnots))
     return Error("knots", std::to_string(log.knots.size()) + " knots, more than the " +
-                              std::to_string(lim::kMaxKnots) + " allowed");
+                              std::to_string(lim::kMaxKnots) +
+                              " allowed (a real log has at most a few hundred)");
   for (size_t i = 0; i < log.knots.size(); ++i)
     if (Status st = validate_knot(log.knots[i], at("knots", i)); !st) return st;
   return Status::Ok();

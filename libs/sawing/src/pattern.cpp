@@ -30,19 +30,31 @@ Status Pattern::validate() const {
   const std::string where = name.empty() ? "pattern" : "pattern '" + name + "'";
   if (!(kerf_mm >= 0)) return Error(where, "kerf_mm must be ≥ 0");
   if (boards.empty()) return Error(where, "has no boards");
+  if (boards.size() > static_cast<size_t>(kMaxPatternBoards))
+    return Error(where, "has " + std::to_string(boards.size()) + " boards, more than the " +
+                            std::to_string(kMaxPatternBoards) +
+                            " allowed (a real pattern has a few dozen)");
+  if (standard_widths_mm.size() > static_cast<size_t>(kMaxStandardWidths))
+    return Error(where, "has " + std::to_string(standard_widths_mm.size()) +
+                            " standard widths, more than the " +
+                            std::to_string(kMaxStandardWidths) + " allowed");
   if (!(wane.max_face_fraction >= 0 && wane.max_face_fraction <= 1) ||
       !(wane.max_edge_fraction >= 0 && wane.max_edge_fraction <= 1))
     return Error(where, "wane fractions must lie in [0, 1]");
   if (!(wane.min_length_mm >= 0) || !(wane.length_step_mm >= 0))
     return Error(where, "min_length_mm and length_step_mm must be ≥ 0");
   for (double w : standard_widths_mm)
-    if (!(w > 0)) return Error(where, "standard widths must be > 0");
+    if (!(w > 0 && w <= kMaxBoardSizeMm))
+      return Error(where, "standard widths must be > 0 and at most " +
+                              std::to_string(static_cast<int>(kMaxBoardSizeMm)) + " mm");
   for (size_t i = 0; i < boards.size(); ++i) {
     const BoardSpec& b = boards[i];
     const std::string bw =
         where + ", board " + std::to_string(i) + (b.name.empty() ? "" : " '" + b.name + "'");
-    if (!(b.thickness_mm > 0) || !(b.width_mm > 0))
-      return Error(bw, "thickness and width must be > 0");
+    if (!(b.thickness_mm > 0) || !(b.width_mm > 0) || !(b.thickness_mm <= kMaxBoardSizeMm) ||
+        !(b.width_mm <= kMaxBoardSizeMm))
+      return Error(bw, "thickness and width must be > 0 and at most " +
+                           std::to_string(static_cast<int>(kMaxBoardSizeMm)) + " mm");
     if (!std::isfinite(b.u_mm) || !std::isfinite(b.v_mm))
       return Error(bw, "position is not finite");
     const Rect r = rect_of(b);

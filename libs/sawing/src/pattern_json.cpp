@@ -61,6 +61,10 @@ Result<Pattern> pattern_from_json(const std::string& text) {
   auto boards = j.find("boards");
   if (boards == j.end()) return Error("boards", "missing");
   if (!boards->is_array()) return Error("boards", "expected an array");
+  if (boards->size() > static_cast<size_t>(kMaxPatternBoards))
+    return Error("boards", "has " + std::to_string(boards->size()) + " boards, more than the " +
+                               std::to_string(kMaxPatternBoards) +
+                               " allowed (a real pattern has a few dozen)");
   for (size_t i = 0; i < boards->size(); ++i) {
     const std::string where = "boards[" + std::to_string(i) + "]";
     const Json& o = (*boards)[i];

@@ -1,7 +1,10 @@
 // One sawing job (see sawing_job.h).
 #include "sawyer/sawing/sawing_job.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <utility>
 
 #include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/setup.h"
@@ -44,10 +47,53 @@ Result<SawSetup> load_saw_setup(const SawNames& names, const OptimiseOptions& op
   return s;
 }
 
+double wood_reach_mm(const SawLog& log) {
+  const Stem& st = log.model().stem;
+  double reach = 0;
+  for (int i = 0; i < st.slice_count(); ++i) {
+    double r = 0;
+    for (double v : st.radius[static_cast<size_t>(i)]) r = std::max(r, v);
+    reach = std::max(reach, (st.pith[static_cast<size_t>(i)] - log.line_at(st.z_at(i))).norm() + r);
+  }
+  return reach;
+}
+
+Status check_offsets_reach(const SawSetup& setup, double reach_mm, const std::string& reach_what) {
+  char within[160];
+  std::snprintf(within, sizeof within, "%s lies within %.0f mm of the log's centre line",
+                reach_what.c_str(), reach_mm);
+  if (setup.position) {
+    const LogPosition& p = *setup.position;
+    const double d = std::hypot(p.offset_x_mm, p.offset_y_mm);
+    if (d > reach_mm) {
+      char buf[320];
+      std::snprintf(buf, sizeof buf,
+                    "offset (%g, %g) mm puts the pattern's centre %.0f mm from the log's centre "
+                    "line, outside the log: %s; give offsets within that",
+                    p.offset_x_mm, p.offset_y_mm, d, within);
+      return Error("SawNames::position", buf);
+    }
+  }
+  const OptimiseOptions& o = setup.options;
+  for (const auto& [option, max] : {std::pair{"offset_x_max_mm", o.offset_x_max_mm},
+                                    std::pair{"offset_y_max_mm", o.offset_y_max_mm}}) {
+    if (max <= reach_mm) continue;
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "%g mm reaches past the log, whose positions there saw nothing: %s; give at "
+                  "most %.0f mm",
+                  max, within, std::floor(reach_mm));
+    return Error(option, buf);
+  }
+  return Status::Ok();
+}
+
 Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
                                     const std::function<void(int, int)>& progress) {
   SawingOutcome out{SawLog(log), {}, {}, {}, {}, {}};
   if (Status s = check_pattern_fits(setup.pattern, out.saw_log.usable_diameter_mm(), log.id); !s)
+    return s.error();
+  if (Status s = check_offsets_reach(setup, wood_reach_mm(out.saw_log), "the log's wood"); !s)
     return s.error();
   Result<OptimiseResult> opt = optimise_position(out.saw_log, setup.pattern, setup.rules,
                                                  setup.prices, setup.options, progress);

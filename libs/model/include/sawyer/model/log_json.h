@@ -54,7 +54,10 @@ inline constexpr double kMaxAbsPithMm = 10000.0;
 // Outer and heartwood radius: 3 m diameter under bark, twice the biggest logs sawn.
 inline constexpr double kMaxRadiusMm = 1500.0;
 inline constexpr double kMaxBarkMm = 500.0;  // the thickest barks (sequoia) are about 300 mm
-inline constexpr int kMaxKnots = 100000;     // a 40 m log with a whorl every 10 cm has ~5000
+// Knots: real logs have 10-30 a metre (the bundled spruce 27/m), at most a few hundred; a 40 m
+// log at 50/m has 2000. 10 000 keeps a wide margin and bounds what every stage does per knot
+// (the sawing optimiser turns each knot's axis at every position: 100 000 knots ran for minutes).
+inline constexpr int kMaxKnots = 10000;
 // Knot length from the pith (r_dead, r_end): to the bark of the largest log and beyond it for
 // branch stubs.
 inline constexpr double kMaxKnotLengthMm = 2000.0;

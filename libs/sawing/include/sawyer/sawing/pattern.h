@@ -46,6 +46,16 @@ struct WaneRules {
   double length_step_mm = 300.0;    // trimmed lengths are whole multiples of this (0: any)
 };
 
+// What a pattern may hold, checked by Pattern::validate() (so by every reader). Real patterns
+// have a few dozen boards at most; through-and-through of the widest log a model may hold (3 m
+// across, log_limits::kMaxRadiusMm) in 12 mm boards with 3 mm kerfs is 200. The limit bounds
+// the sawing's work, which grows with the boards cut at every position (issue 44: 10 000 boards
+// ran for minutes). Mills stock about ten standard widths. A board larger than that log is no
+// board.
+inline constexpr int kMaxPatternBoards = 200;
+inline constexpr int kMaxStandardWidths = 100;
+inline constexpr double kMaxBoardSizeMm = 3000.0;
+
 struct Pattern {
   std::string name;
   double kerf_mm = 3.0;
@@ -53,8 +63,8 @@ struct Pattern {
   std::vector<double> standard_widths_mm = {75, 100, 115, 125, 150, 175, 200, 225};
   std::vector<BoardSpec> boards;
 
-  // Programmer-level sanity (sizes > 0, kerf ≥ 0, boards do not overlap); the message names the
-  // board. Readers call it on every file they load.
+  // Sanity (sizes > 0, kerf ≥ 0, boards do not overlap, the counts and sizes within the limits
+  // above); the message names the board. Readers call it on every file they load.
   Status validate() const;
   // Diameter (mm) of the smallest circle about the pattern origin holding every non-edged board.
   double required_diameter_mm() const;

@@ -62,8 +62,21 @@ struct SawingOutcome {
   const LogValue& chosen_value() const { return given_value ? *given_value : best_value; }
 };
 
-// Refuses a pattern that does not fit the log (naming its usable diameter), then runs the
-// optimiser and saws the best and the given position. `progress` as optimise_position's.
+// How far from its centre line (SawLog::line_at) the wood of `log` reaches at any height: per
+// stem sample the pith's distance from the line plus the largest outline radius, mm. A pattern
+// centre farther than this lies outside the log at every height.
+double wood_reach_mm(const SawLog& log);
+
+// The offsets of `setup` against `reach_mm`: the given position's (x, y), and the optimiser's
+// grid (±offset_x_max_mm, ±offset_y_max_mm). One farther than the reach saws nothing of the log
+// (issue 44: offsets of metres were accepted). `reach_what` says what bounds the reach ("the
+// log's wood", "the scan's field of view"). Errors name the option (SawNames::position,
+// offset_x_max_mm, offset_y_max_mm) and the largest offset accepted.
+Status check_offsets_reach(const SawSetup& setup, double reach_mm, const std::string& reach_what);
+
+// Refuses a pattern that does not fit the log (naming its usable diameter) and offsets that
+// leave the log (check_offsets_reach with wood_reach_mm), then runs the optimiser and saws the
+// best and the given position. `progress` as optimise_position's.
 Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
                                     const std::function<void(int, int)>& progress = {});
 

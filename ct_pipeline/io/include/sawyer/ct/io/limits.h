@@ -30,6 +30,14 @@ inline constexpr int kMaxSliceCount = 100000;
 inline constexpr double kMaxZExtentMm = 30000.0;
 // Origin coordinates, mm: 10 km from the scanner's origin is a corrupt header.
 inline constexpr double kMaxPositionMm = 1e7;
+// The rescale to HU (HU = slope * stored value + intercept), from a file's header or given.
+// CT scanners write slopes near 1 (0.5-2 for 12-16 bit detectors); a slope under 1e-4 squeezes
+// a 16-bit range into 6.5 HU, less than a scanner's noise. Float stacks of attenuation in 1/mm
+// need about 1000 / 0.0195 = 5.1e4 (water's attenuation at 70 keV), so 1e5 is twice that. An
+// intercept beyond 1e5 HU puts every voxel outside the HU scale (air -1000, metal ~3e4).
+inline constexpr double kMinAbsRescaleSlope = 1e-4;
+inline constexpr double kMaxAbsRescaleSlope = 1e5;
+inline constexpr double kMaxAbsRescaleIntercept = 1e5;
 // Resampling onto an even z grid (make_uniform_z): refused, unless OpenOptions::allow_gaps, when
 // more than this fraction of the output slices would be invented (the benches drop 5 % of the
 // slices at random, a scanner drops single slices; 10 % is twice that) or when one gap between
@@ -44,6 +52,11 @@ inline constexpr double kMemoryShare = 0.75;
 
 // "<what> <value> mm is outside 0.01-50 mm" as an Error for `where`, or Ok.
 Status check_spacing(const std::string& where, const std::string& what, double mm);
+
+// The rescale within the limits above, finite: "<what> slope 1e+30 is outside ..." as an Error
+// for `where`, or Ok. `what` names it as the file does ("Rescale Slope/Intercept" for DICOM).
+Status check_rescale(const std::string& where, double slope, double intercept,
+                     const std::string& what = "rescale");
 
 // Every limit above except memory, on a reader's geometry (raw z positions allowed: the limit
 // on the gap between neighbouring slices is checked only for gaps over 1e-3 mm, duplicates are
