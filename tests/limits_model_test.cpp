@@ -574,13 +574,14 @@ TEST(SawingLimits, RunRefusesOffsetsOutsideTheScanBeforeTheScan) {
   const std::vector<std::string> before = listing(dir.path());
   std::string out;
   EXPECT_EQ(test::run_sawyer("run " + test::quoted(test::gran1_40cm_ct()) + " -o " +
-                                 test::quoted(dir / "o") + " --position 0,1400 --no-register -q",
+                                 test::quoted(dir / "o") + " --position 0,1400 --db " +
+                                 test::quoted(dir / "reg.sqlite") + " -q",
                              &out),
             1);
   EXPECT_EQ(lines(out), 1u) << out;
   EXPECT_THAT(out, HasSubstr("--position: offset (1400, 0) mm")) << out;
   EXPECT_THAT(out, HasSubstr("the scanned volume")) << out;
-  EXPECT_EQ(listing(dir.path()), before) << "no run folder";
+  EXPECT_EQ(listing(dir.path()), before) << "no register, no run folder";
 }
 #endif
 

@@ -3,9 +3,11 @@
 // nothing, merges are idempotent; ct_checksum sees content, renames and single bytes.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -177,7 +179,10 @@ TEST(LogRegister, FiltersOrderAndLimit) {
   injection.order_by = "value; DROP TABLE logs";
   Result<std::vector<LogRecord>> bad = reg.list(injection);
   ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message().find("unknown column"), std::string::npos);
+  EXPECT_NE(bad.error().message().find("LogFilter::order_by: unknown field"), std::string::npos)
+      << bad.error().message();
+  EXPECT_TRUE(check_order_by("-knot_count").ok());
+  EXPECT_FALSE(check_order_by("--knot_count").ok());
 }
 
 TEST(LogRegister, GarbageFileIsRefusedNamingIt) {
@@ -313,6 +318,43 @@ TEST(LogRegister, MergeAddsNewerWinsAndIsIdempotent) {
   Result<MergeSummary> bad = ra.merge_from(dir / "junk.sqlite");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().message().find("junk.sqlite"), std::string::npos);
+}
+
+// Issue 44: `sawyer logs --merge` of a bad register refused, but left the merged file it had
+// begun. Every source is checked before --db is made; a --db that cannot be made whole (a full
+// disk: a file size limit of 0) leaves nothing, nor the folder made for it.
+TEST(LogRegister, AMergeThatFailsLeavesNoRegisterThatWasNotThere) {
+  test::TempDir dir;
+  test::write_file(dir / "junk.sqlite", "not a database at all, just text\n");
+  const fs::path target = dir / "new" / "merged.sqlite";
+  Result<std::vector<MergeSummary>> r = merge_registers(target, {dir / "junk.sqlite"});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message().find("junk.sqlite"), std::string::npos) << r.error().message();
+  EXPECT_FALSE(fs::exists(dir / "new"));
+  r = merge_registers(target, {dir / "missing.sqlite"});
+  ASSERT_FALSE(r.ok());
+  EXPECT_FALSE(fs::exists(dir / "new"));
+
+  // A good source, kept open so that its WAL index exists and reading it writes nothing.
+  LogRegister src = open_ok(dir / "src.sqlite");
+  ASSERT_TRUE(src.upsert(full_record("/s/1", 1)).ok());
+  struct rlimit old {};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  struct rlimit none = old;
+  none.rlim_cur = 0;
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &none), 0);
+  r = merge_registers(target, {dir / "src.sqlite"});
+  ::setrlimit(RLIMIT_FSIZE, &old);
+  std::signal(SIGXFSZ, old_handler);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message().find("merged.sqlite"), std::string::npos) << r.error().message();
+  EXPECT_FALSE(fs::exists(dir / "new")) << "neither the register nor its folder is left";
+  // With room, the same merge makes it.
+  r = merge_registers(target, {dir / "src.sqlite"});
+  ASSERT_TRUE(r.ok()) << r.error().message();
+  EXPECT_EQ(r.value().at(0).added, 1);
+  EXPECT_EQ(LogRegister::open_read_only(target).value().count().value(), 1);
 }
 
 TEST(LogRegister, DefaultPathFollowsTheEnvironment) {

@@ -329,24 +329,31 @@ TEST(Register, AFailedCreateLeavesNoStub) {
   std::string out;
   // A file size limit of 0 makes every write fail, as a full disk does; SIGXFSZ is ignored so
   // the write returns an error instead of killing the process.
-  // `sawyer run` opens (creates) the register before it scans anything.
+  // `sawyer run` creates a new register only when it writes the log's row, last: the run fails
+  // writing its folder, and leaves neither folder nor register.
   const int rc = test::run_command("trap '' XFSZ; ulimit -f 0; \"" + test::sawyer_bin() +
                                        "\" run " + test::quoted(small_ct()) + " -o " +
                                        test::quoted(dir / "out") + " -q --db " + test::quoted(db),
                                    &out);
   EXPECT_EQ(rc, 1) << out;
-  EXPECT_TRUE(mentions(out, "reg.sqlite")) << out;
   EXPECT_FALSE(fs::exists(db)) << "a stub register was left behind";
   EXPECT_FALSE(fs::exists(dir / "reg.sqlite-wal"));
   EXPECT_FALSE(fs::exists(dir / "out"));
-  // And the same path works once the disk has room.
-  EXPECT_EQ(
-      test::run_sawyer(
-          "logs --merge " + test::quoted(dir / "none.sqlite") + " --db " + test::quoted(db), &out),
-      1)
+  // And the same path works once the disk has room (a merge makes the register; that a merge
+  // which cannot make it leaves nothing is register_test's).
+  ASSERT_EQ(
+      test::run_sawyer("run " + test::quoted(small_ct()) + " -o " + test::quoted(dir / "out") +
+                           " --pattern " + test::quoted(short_pattern(dir.path())) + " -q --db " +
+                           test::quoted(dir / "src.sqlite"),
+                       &out),
+      0)
       << out;
-  EXPECT_TRUE(mentions(out, "none.sqlite")) << out;
-  EXPECT_TRUE(fs::exists(db)) << "the register is created when the disk allows";
+  EXPECT_EQ(test::run_sawyer("logs --merge " + test::quoted(dir / "src.sqlite") + " --db " +
+                                 test::quoted(dir / "new" / "reg.sqlite"),
+                             &out),
+            0)
+      << out;
+  EXPECT_TRUE(fs::exists(dir / "new" / "reg.sqlite"));
 }
 
 // --- exit codes ------------------------------------------------------------------------------
@@ -363,6 +370,61 @@ TEST(ExitCodes, CommandLineErrorsExitOneHelpExitsZero) {
   EXPECT_EQ(test::run_sawyer("--help", &out), 0) << out;
   EXPECT_EQ(test::run_sawyer("run --help", &out), 0) << out;
   EXPECT_EQ(test::run_sawyer("--version", &out), 0) << out;
+}
+
+// --- issue 44: a refusal leaves nothing that was not there ---------------------------------
+
+TEST(Leftovers, ARunRefusedBeforeItStartsLeavesNoRegister) {
+  test::TempDir dir;
+  test::write_file(dir / "notes.txt", "mine\n");
+  fs::create_directories(dir / "empty_ct");
+  const std::vector<std::string> before = listing(dir.path());
+  const std::string db = " -q --db " + test::quoted(dir / "reg" / "logs.sqlite");
+  std::string out;
+  // No scan there; an output that is a file of the user's; a pattern that does not exist.
+  for (const std::string& args :
+       {"run " + test::quoted(dir / "empty_ct") + " -o " + test::quoted(dir / "out") + db,
+        "run " + test::quoted(small_ct()) + " -o " + test::quoted(dir / "notes.txt") + db,
+        "run " + test::quoted(small_ct()) + " -o " + test::quoted(dir / "out") + " --pattern " +
+            test::quoted(dir / "none.json") + db}) {
+    EXPECT_EQ(test::run_sawyer(args, &out), 1) << args << "\n" << out;
+    EXPECT_EQ(listing(dir.path()), before) << args << "\n" << out;
+  }
+  // The default register ($HOME/.local/share/sawyer/logs.sqlite) is not created either.
+  fs::create_directories(dir / "home");
+  EXPECT_EQ(test::run_command(
+                "env -u SAWYER_DB -u XDG_DATA_HOME HOME=" + test::quoted(dir / "home") + " \"" +
+                    test::sawyer_bin() + "\" run " + test::quoted(dir / "empty_ct") + " -o " +
+                    test::quoted(dir / "out") + " -q",
+                &out),
+            1)
+      << out;
+  EXPECT_TRUE(fs::is_empty(dir / "home")) << "no ~/.local/share/sawyer";
+  // A register that cannot be made is refused before the scan, naming it.
+  EXPECT_EQ(
+      test::run_sawyer("run " + test::quoted(small_ct()) + " -o " + test::quoted(dir / "out") +
+                           " -q --db " + test::quoted(dir / "notes.txt" / "logs.sqlite"),
+                       &out),
+      1);
+  EXPECT_TRUE(mentions(out, "logs.sqlite: cannot be created")) << out;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+TEST(Leftovers, MergingACorruptRegisterLeavesNoMergedFile) {
+  test::TempDir dir;
+  test::write_file(dir / "corrupt.sqlite", std::string("SQLite format 3") + std::string(4000, 'x'));
+  test::write_file(dir / "text.sqlite", "not a database at all\n");
+  const std::vector<std::string> before = listing(dir.path());
+  std::string out;
+  for (const char* bad : {"corrupt.sqlite", "text.sqlite", "missing.sqlite"}) {
+    EXPECT_EQ(test::run_sawyer("logs --merge " + test::quoted(dir / bad) + " --db " +
+                                   test::quoted(dir / "merged" / "all.sqlite"),
+                               &out),
+              1)
+        << bad << ": " << out;
+    EXPECT_TRUE(mentions(out, bad)) << out;
+    EXPECT_EQ(listing(dir.path()), before) << bad << ": " << out;
+  }
 }
 
 // --- long output names (issue 44) ---------------------------------------------------------

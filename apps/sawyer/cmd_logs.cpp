@@ -161,16 +161,17 @@ int run(const LogsCli& c) {
   if (!db_path) return fail(db_path.error());
   const fs::path db = db_path.value();
   if (!c.merge.empty()) {
-    Result<LogRegister> reg = LogRegister::open(db);
-    if (!reg) return fail(reg.error());
-    for (const std::string& other : c.merge) {
-      if (fs::exists(other) && fs::exists(db) && fs::equivalent(other, db))
-        return fail(Error(other, "is the --db register itself"));
-      Result<MergeSummary> m = reg.value().merge_from(other);
-      if (!m) return fail(m.error());
-      std::cout << "merged " << other << ": " << m.value().rows_read << " rows, " << m.value().added
-                << " new, " << m.value().updated << " updated\n";
+    // Every source is checked before --db is touched; a refusal leaves no new register.
+    Result<std::vector<MergeSummary>> merged =
+        merge_registers(db, std::vector<fs::path>(c.merge.begin(), c.merge.end()));
+    if (!merged) return fail(merged.error());
+    for (size_t i = 0; i < c.merge.size(); ++i) {
+      const MergeSummary& m = merged.value()[i];
+      std::cout << "merged " << c.merge[i] << ": " << m.rows_read << " rows, " << m.added
+                << " new, " << m.updated << " updated\n";
     }
+    Result<LogRegister> reg = LogRegister::open_read_only(db);
+    if (!reg) return fail(reg.error());
     Result<int> n = reg.value().count();
     if (!n) return fail(n.error());
     std::cout << db.string() << ": " << n.value() << " logs\n";

@@ -187,9 +187,16 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
         reg::register_path(c.db, "RunJobOptions::db", "RunJobOptions::no_register");
     if (!db_path) return db_path.error();
     run->db = db_path.value();
-    Result<reg::LogRegister> r = reg::LogRegister::open(run->db);
-    if (!r) return r.error();
-    reg.emplace(std::move(r.value()));
+    // A register that exists is opened (and checked) now; a new one is made only when its row
+    // is written, last, so that a run refused or failed on the way leaves no register behind
+    // (issue 44). Whether it could be made is checked now, before the scan.
+    if (fs::exists(fs::symlink_status(run->db, ec))) {
+      Result<reg::LogRegister> r = reg::LogRegister::open(run->db);
+      if (!r) return r.error();
+      reg.emplace(std::move(r.value()));
+    } else if (Status can = reg::check_register_creatable(run->db); !can) {
+      return can.error();
+    }
   }
   // Then the scan is opened (headers only), then the output is checked.
   auto opened = open_scan(c.scan);
@@ -348,7 +355,12 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
       return w;
     // Last, so that a register that refuses the row leaves no output behind either. A log that
     // was not sawn has no position or value to record, and the register no column to say so.
-    if (reg && run->sawn) {
+    if (!c.no_register && run->sawn) {
+      if (!reg) {
+        Result<reg::LogRegister> r = reg::LogRegister::open(run->db);
+        if (!r) return r.error();
+        reg.emplace(std::move(r.value()));
+      }
       if (Status w = reg->upsert(register_record(*run, source, checksum, date)); !w) return w;
     }
     return Status::Ok();

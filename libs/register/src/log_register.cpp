@@ -1,12 +1,15 @@
 #include "sawyer/register/log_register.h"
 
 #include <sqlite3.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
+#include <optional>
 #include <system_error>
 #include <thread>
 #include <utility>
+#include <vector>
 
 namespace sawyer::reg {
 namespace fs = std::filesystem;
@@ -272,22 +275,88 @@ LogRegister::~LogRegister() = default;
 
 const fs::path& LogRegister::path() const { return impl_->path; }
 
+namespace {
+
+// The folders above `db` that do not exist yet, the deepest first.
+std::vector<fs::path> missing_folders(const fs::path& db) {
+  std::vector<fs::path> missing;
+  std::error_code ec;
+  for (fs::path p = fs::absolute(db, ec).parent_path(); !p.empty() && p != p.root_path();
+       p = p.parent_path()) {
+    if (fs::exists(fs::symlink_status(p, ec))) break;
+    missing.push_back(p);
+  }
+  return missing;
+}
+
+// A register this process created and could not finish (or merge into) is removed with its
+// SQLite side files and the folders made for it, so nothing is left that was not there.
+void remove_created(const fs::path& db, const std::vector<fs::path>& made_folders) {
+  std::error_code ec;
+  for (const char* suffix : {"", "-wal", "-shm", "-journal"})
+    fs::remove(fs::path(db.string() + suffix), ec);
+  for (const fs::path& f : made_folders) fs::remove(f, ec);  // only while empty
+}
+
+}  // namespace
+
 Result<LogRegister> LogRegister::open(const fs::path& db) {
   std::error_code ec;
   if (fs::is_directory(db, ec)) return Error(db.string(), "is a folder, expected a database file");
+  const std::vector<fs::path> made = missing_folders(db);
   if (!db.parent_path().empty()) {
     fs::create_directories(db.parent_path(), ec);
-    if (ec) return Error(db.parent_path().string(), "cannot create folder: " + ec.message());
+    if (ec) {
+      remove_created(db, made);
+      return Error(db.parent_path().string(), "cannot create folder: " + ec.message());
+    }
   }
   const bool existed = fs::exists(fs::symlink_status(db, ec));
   Result<LogRegister> r = open_or_create(db);
-  if (!r && !existed) {
-    // A register that could not be created whole (a full disk, a read-only folder) is not left
-    // behind as a stub that the next run would take for a register.
-    for (const char* suffix : {"", "-wal", "-shm", "-journal"})
-      fs::remove(fs::path(db.string() + suffix), ec);
-  }
+  // A register that could not be created whole (a full disk, a read-only folder) is not left
+  // behind as a stub that the next run would take for a register.
+  if (!r && !existed) remove_created(db, made);
   return r;
+}
+
+Status check_register_creatable(const fs::path& db) {
+  std::error_code ec;
+  fs::path p = fs::absolute(db, ec).parent_path();
+  while (!p.empty() && !fs::exists(fs::symlink_status(p, ec)) && p != p.root_path())
+    p = p.parent_path();
+  if (!fs::is_directory(p, ec))
+    return Error(db.string(), "cannot be created: " + p.string() + " is not a folder");
+  if (::access(p.c_str(), W_OK | X_OK) != 0)
+    return Error(db.string(), "cannot be created: " + p.string() + " is not writable");
+  return Status::Ok();
+}
+
+Result<std::vector<MergeSummary>> merge_registers(const fs::path& db,
+                                                  const std::vector<fs::path>& sources) {
+  std::error_code ec;
+  for (const fs::path& other : sources) {
+    if (fs::exists(other, ec) && fs::exists(db, ec) && fs::equivalent(other, db, ec))
+      return Error(other.string(), "is the --db register itself");
+    Result<LogRegister> src = LogRegister::open_read_only(other);
+    if (!src) return src.error();
+    if (Status st = src.value().integrity_check(); !st) return st.error();
+  }
+  const bool existed = fs::exists(fs::symlink_status(db, ec));
+  const std::vector<fs::path> made = missing_folders(db);
+  Result<LogRegister> opened = LogRegister::open(db);
+  if (!opened) return opened.error();
+  std::optional<LogRegister> reg(std::move(opened.value()));
+  std::vector<MergeSummary> done;
+  for (const fs::path& other : sources) {
+    Result<MergeSummary> m = reg->merge_from(other);
+    if (!m) {
+      reg.reset();  // closed before its files are removed
+      if (!existed) remove_created(db, made);
+      return m.error();
+    }
+    done.push_back(m.value());
+  }
+  return done;
 }
 
 Result<LogRegister> LogRegister::open_or_create(const fs::path& db) {
@@ -413,14 +482,20 @@ bool known_sort_column(const std::string& c) {
 
 }  // namespace
 
+Status check_order_by(const std::string& order_by) {
+  const std::string column = order_by.starts_with('-') ? order_by.substr(1) : order_by;
+  if (known_sort_column(column)) return Status::Ok();
+  return Error("LogFilter::order_by",
+               "unknown field '" + order_by + "'; give one of " + column_list() +
+                   ", first_registered, last_registered, scans (a leading '-' sorts descending)");
+}
+
 Result<std::vector<LogRecord>> LogRegister::list(const LogFilter& f) const {
   std::string order = f.order_by.empty() ? "scanned_at" : f.order_by;
+  // The column name goes into the SQL text, so only our own column names are let through.
+  if (Status st = check_order_by(order); !st) return st.error();
   const bool desc = order[0] == '-';
   if (desc) order.erase(0, 1);
-  // The column name goes into the SQL text, so only our own column names are let through.
-  if (!known_sort_column(order))
-    return Error("order by", "unknown column '" + order + "' (" + column_list() +
-                                 ", first_registered, last_registered, scans)");
   std::string sql = select_all() + " WHERE 1";
   if (!f.species.empty()) sql += " AND species = :species";
   if (!f.log_id_like.empty()) sql += " AND log_id LIKE :id";

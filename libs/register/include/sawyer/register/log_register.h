@@ -58,6 +58,10 @@ struct LogFilter {
   std::string order_by = "scanned_at";
 };
 
+// Whether `order_by` names a column LogFilter::order_by may sort by (with or without the
+// leading '-'); the error names LogFilter::order_by and lists the columns.
+Status check_order_by(const std::string& order_by);
+
 // What merge_from() did.
 struct MergeSummary {
   int rows_read = 0, added = 0, updated = 0;
@@ -106,6 +110,19 @@ class LogRegister {
   static Result<LogRegister> open_or_create(const std::filesystem::path& db);
   std::unique_ptr<Impl> impl_;
 };
+
+// Whether a register could be created at `db` (that does not exist yet) without creating it:
+// its folder, or the nearest folder above it that exists, is a folder this process may write.
+// The error names `db`. `sawyer run` checks this before a scan and creates the register only
+// when it writes the row, so that a run refused or failed on the way leaves no register behind.
+Status check_register_creatable(const std::filesystem::path& db);
+
+// `sawyer logs --merge`: every source is checked first (a register of a version this reads, that
+// passes SQLite's integrity check, and not `db` itself), then `db` is opened (created if
+// missing) and each source merged in turn. A refusal or failure leaves no register at `db`
+// that was not there before. Returns what each merge did, in the order of `sources`.
+Result<std::vector<MergeSummary>> merge_registers(
+    const std::filesystem::path& db, const std::vector<std::filesystem::path>& sources);
 
 // Where the register lives by default: $SAWYER_DB, else $XDG_DATA_HOME/sawyer/logs.sqlite, else
 // $HOME/.local/share/sawyer/logs.sqlite. Empty when none of the three is set: a register is
