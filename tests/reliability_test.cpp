@@ -6,6 +6,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -363,7 +364,7 @@ TEST(ExitCodes, CommandLineErrorsExitOneHelpExitsZero) {
   for (const std::string args :
        {"", "frobnicate", "run", "saw --rot-step x a.json -o b.json", "info --no-such-option x",
         "generate --length-m x -o x.json", "scan ct -o out --threads 100000",
-        "batch m.csv -o b --jobs 0", "run ct -o out --threads 0"}) {
+        "batch m.csv -o b --jobs 0", "run ct -o out --threads -1"}) {
     EXPECT_EQ(test::run_sawyer(args, &out), 1) << "sawyer " << args << "\n" << out;
     EXPECT_FALSE(out.empty()) << "sawyer " << args << " said nothing";
   }
@@ -372,7 +373,13 @@ TEST(ExitCodes, CommandLineErrorsExitOneHelpExitsZero) {
   EXPECT_EQ(test::run_sawyer("--version", &out), 0) << out;
 }
 
-// --- issue 44: a refusal leaves nothing that was not there ---------------------------------
+// --- issue 44: refusals leave nothing, parse errors in Sawyer's words, long names -----------
+
+// Runs the sawyer binary with `args`; returns the exit code and its stderr alone in *err.
+int run_stderr(const std::string& args, std::string* err) {
+  // run_command adds its own 2>&1 after the command: the group's stderr is sawyer's.
+  return test::run_command("( \"" + test::sawyer_bin() + "\" " + args + " 2>&1 >/dev/null )", err);
+}
 
 TEST(Leftovers, ARunRefusedBeforeItStartsLeavesNoRegister) {
   test::TempDir dir;
@@ -427,7 +434,55 @@ TEST(Leftovers, MergingACorruptRegisterLeavesNoMergedFile) {
   }
 }
 
-// --- long output names (issue 44) ---------------------------------------------------------
+TEST(Messages, ParseErrorsAreOneSawyerLineNamingTheOptionAndWhatItTakes) {
+  struct Case {
+    std::string args, names, takes;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"run ct -o out --threads 300", "--threads: 300", "0-256"},
+           {"saw log.json -o s.json --threads 1.5", "--threads: '1.5'", "0-256"},
+           {"saw log.json -o s.json --rot-step abc", "--rot-step: 'abc' is not a number",
+            "rotation step"},
+           {"batch m.csv -o b --jobs 0", "--jobs: 0", "1-256"},
+           {"logs --limit -2", "--limit: -2", "0-"},
+           {"run ct -o out --stem-step -1", "--stem-step: -1", "0-1000 mm"},
+           {"convert a.json -o b --format x", "--format: 'x'", "log, published, float"},
+           {"", "no command given", "info, convert"},
+           {"frobnicate", "frobnicate: unknown command", "info, convert"},
+           {"run", "run: input is missing", "CT scan"},
+           {"saw log.json", "saw: -o/--output is missing", "sawing.json to write"},
+           {"info --no-such-option x", "info: --no-such-option: unknown option", "--help"},
+           {"info a b", "info: 'b': unexpected argument", "info takes input"},
+           {"logs --merge", "--merge: needs a value", "registers"},
+           {"logs --csv --json", "--csv: cannot be given with --json", "one of them"},
+           {"logs --sort bogus", "--sort: unknown field 'bogus'", "scanned_at"},
+           {"info ct --rescale-slope 1e9", "--rescale-slope: 1e9 is outside",
+            "-100000 to 100000"}}) {
+    std::string err;
+    EXPECT_EQ(run_stderr(c.args, &err), 1) << c.args << "\n" << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << c.args << "\n" << err;
+    EXPECT_EQ(err.rfind("sawyer: ", 0), 0u) << c.args << "\n" << err;
+    EXPECT_TRUE(mentions(err, c.names)) << c.args << "\n" << err;
+    EXPECT_TRUE(mentions(err, c.takes)) << c.args << "\n" << err;
+    EXPECT_FALSE(mentions(err, "Run with --help")) << err;
+    EXPECT_FALSE(mentions(err, "order by")) << err;
+  }
+}
+
+TEST(Messages, ThreadsZeroMeansAllCoresAndTheHelpSaysSo) {
+  std::string out;
+  for (const char* cmd : {"run", "scan", "saw", "phantom"}) {
+    EXPECT_EQ(test::run_sawyer(std::string(cmd) + " --help", &out), 0);
+    EXPECT_TRUE(mentions(out, "0 (the default): all cores")) << cmd << "\n" << out;
+  }
+  test::TempDir dir;
+  EXPECT_EQ(test::run_sawyer("saw " + test::quoted(test::sample_log("pine_8") / "log.json") +
+                                 " --threads 0 -o " + test::quoted(dir / "s.json"),
+                             &out),
+            0)
+      << out;
+  EXPECT_TRUE(fs::exists(dir / "s.json"));
+}
 
 TEST(LongNames, AnOutputNameUpToTheFileSystemLimitIsWritten) {
   test::TempDir dir;

@@ -45,6 +45,7 @@ constexpr OptionName kFlags[] = {
     {"BakeOptions::supersample", "--supersample"},
     {"RunJobOptions::db", "--db"},
     {"RunJobOptions::no_register", "--no-register"},
+    {"LogFilter::order_by", "--sort"},
     {"eccentricity_min", "--eccentricity"},
     {"eccentricity_max", "--eccentricity"},
     {"eccentricity_change", "--eccentricity-change"},

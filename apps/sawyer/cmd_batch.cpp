@@ -4,6 +4,7 @@
 // log in the shared register (WAL + busy timeout make concurrent writers safe on a local disk);
 // the batch only reads it back for the value column of batch_<i>.csv.
 #include "cmd_batch.h"
+#include "cli_checks.h"
 #include "cli_error.h"
 
 #include <unistd.h>
@@ -259,7 +260,7 @@ void add_batch_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("-j,--jobs", c->jobs,
                   "logs at once, 1-256, each its own process (memory: N times one log's peak)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 256));
+      ->check(whole_number_in(1, 256, "processes at once"));
   cmd->add_option("--shard", c->shard,
                   "i/N: only rows with row_index % N == i, 0-based, e.g. "
                   "${SLURM_ARRAY_TASK_ID}/${SLURM_ARRAY_TASK_COUNT}")
@@ -271,7 +272,7 @@ void add_batch_command(CLI::App& app, std::function<int()>& run_out) {
   cmd->add_option("--timeout", c->timeout_s,
                   "seconds a log may take before it is stopped and counted failed (0: no limit)")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 1e7));
+      ->check(number_in(0, 1e7, " s", 0, "0: no limit"));
   cmd->add_option("run_options", c->pass,
                   "after --: options for every `sawyer run` (--pattern, --grading, --prices, "
                   "...); manifest cells override them");

@@ -2,6 +2,7 @@
 // error), filters in SQL and prints a table, CSV or JSON on stdout. With --merge it copies other
 // registers into --db first.
 #include "cmd_logs.h"
+#include "cli_checks.h"
 #include "cli_error.h"
 
 #include <nlohmann/json.hpp>
@@ -157,6 +158,9 @@ void print_csv(const std::vector<LogRecord>& rows) {
 }
 
 int run(const LogsCli& c) {
+  // Every option is checked before the register is looked at: a wrong field is wrong whether or
+  // not there are logs yet.
+  if (Status st = check_order_by(c.order_by); !st) return fail(st.error());
   Result<fs::path> db_path = register_path(c.db, "--db", "");
   if (!db_path) return fail(db_path.error());
   const fs::path db = db_path.value();
@@ -234,7 +238,8 @@ void add_logs_command(CLI::App& app, std::function<int()>& run_out) {
                   "only log ids matching this pattern: * and ? wildcards, else a substring");
   cmd->add_option("--min-value", c->min_value, "only logs worth at least this much");
   cmd->add_option("--min-diameter", c->min_diameter, "only logs with a mean diameter >= MM");
-  cmd->add_option("--limit", c->limit, "at most N logs")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--limit", c->limit, "at most N logs")
+      ->check(whole_number_in(0, 1000000000, "0: all"));
   cmd->add_option("--sort", c->order_by,
                   "sort by a field (scanned_at, value, log_id, mean_diameter_mm, volume_m3, ...); "
                   "--sort=-field sorts descending")

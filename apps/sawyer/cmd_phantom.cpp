@@ -1,6 +1,7 @@
 // `sawyer phantom`: parses the options into ct::PhantomOptions, builds the phantom, writes the
 // slice folder with its truth/ and reports progress (stderr) and speed (stdout).
 #include "cmd_phantom.h"
+#include "cli_checks.h"
 #include "cli_error.h"
 
 #include <chrono>
@@ -180,8 +181,7 @@ void add_phantom_command(CLI::App& app, std::function<int()>& run_out) {
                   "DICOM and image stacks: stored = HU - intercept (default: 0 for DICOM, "
                   "-1024 for TIFF/PNG; volume files always store HU)");
   add_condition_options(cmd, *c);
-  cmd->add_option("--threads", o.threads, "worker threads, 1-256 (default: all cores)")
-      ->check(CLI::Range(1, 256));
+  add_threads_option(cmd, o.threads);
   cmd->callback([c, &run_out]() { run_out = [c]() { return run(*c); }; });
 }
 

@@ -2,6 +2,7 @@
 // log, renders it headless (EGL) and writes the image atomically (nothing is left under the
 // output name on failure).
 #include "cmd_render.h"
+#include "cli_checks.h"
 #include "cli_error.h"
 
 #include <chrono>
@@ -205,7 +206,7 @@ void add_render_command(CLI::App& app, std::function<int()>& run_out) {
                   "n x n samples per pixel against aliasing, taken only where the wood changes "
                   "within a pixel (knot edges, bark rings, crowded rings) on faces and sections "
                   "(1..4; 1 is fastest)")
-      ->check(CLI::Range(1, 4))
+      ->check(whole_number_in(1, 4))
       ->capture_default_str();
   cmd->add_flag("--supersample-all", c->supersample_all,
                 "take the n x n samples in every pixel (slower; the reference for the above)");

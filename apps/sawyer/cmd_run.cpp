@@ -1,5 +1,6 @@
 // `sawyer run` (see cmd_run.h): the options, one library call (ct::run_job), the summary.
 #include "cmd_run.h"
+#include "cli_checks.h"
 #include "cli_error.h"
 
 #include <cstdio>
@@ -182,17 +183,16 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
       "log register (SQLite; default: $SAWYER_DB or ~/.local/share/sawyer/logs.sqlite)");
   cmd->add_flag("--no-register", c->job.no_register, "do not add the log to the register");
   cmd->add_flag("--no-report", c->job.no_report, "scan and saw only");
-  cmd->add_option("--threads", c->job.scan.threads, "worker threads, 1-256 (default: all cores)")
-      ->check(CLI::Range(1, 256));
+  add_threads_option(cmd, c->job.scan.threads);
   cmd->add_option("--stem-step", c->job.scan.stem_step_mm,
                   "the model's stem samples at most this far apart along z, mm: finer slices are "
                   "averaged (0: one sample per slice)")
-      ->check(CLI::Range(0.0, 1000.0))
+      ->check(number_in(0, 1000, " mm"))
       ->capture_default_str();
   cmd->add_option("--memory", c->job.scan.memory_mb,
                   "memory budget, MB: the run fits into it (narrower knot windows, pith crops on "
                   "disk) or is refused before the scan is read")
-      ->check(CLI::Range(1.0, 1e7))
+      ->check(number_in(1, 1e7, " MB"))
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", c->quiet, "no progress on stderr");
   add_ct_options(cmd, c->ct);

@@ -2,6 +2,7 @@
 // positioning optimiser, prints a one-screen summary and writes sawing.json atomically (nothing
 // is left under the output name on failure).
 #include "cmd_saw.h"
+#include "cli_checks.h"
 #include "cli_error.h"
 
 #include <nlohmann/json.hpp>
@@ -166,8 +167,7 @@ void add_saw_command(CLI::App& app, std::function<int()>& run_out) {
       ->capture_default_str();
   cmd->add_option("--position", c->names.position,
                   "the chosen position, reported beside the best: rot[,x[,y]] (degrees, mm, mm)");
-  cmd->add_option("--threads", o.threads, "worker threads, 1-256 (default: all cores)")
-      ->check(CLI::Range(1, 256));
+  add_threads_option(cmd, o.threads);
   cmd->add_flag("-q,--quiet", c->quiet, "no progress on stderr");
   cmd->callback([c, &run_out]() { run_out = [c]() { return run(*c); }; });
 }

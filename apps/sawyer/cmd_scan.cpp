@@ -1,4 +1,5 @@
 #include "cmd_scan.h"
+#include "cli_checks.h"
 #include "cli_error.h"
 
 #include <cstdio>
@@ -76,17 +77,16 @@ void add_scan_command(CLI::App& app, std::function<int()>& run) {
   cmd->add_option("--species", c->job.species, "species written into log.json")
       ->capture_default_str();
   cmd->add_option("--id", c->job.id, "log id (default: the scan's folder name)");
-  cmd->add_option("--threads", c->job.threads, "worker threads, 1-256 (default: all cores)")
-      ->check(CLI::Range(1, 256));
+  add_threads_option(cmd, c->job.threads);
   cmd->add_option("--stem-step", c->job.stem_step_mm,
                   "the model's stem samples at most this far apart along z, mm: finer slices are "
                   "averaged (0: one sample per slice)")
-      ->check(CLI::Range(0.0, 1000.0))
+      ->check(number_in(0, 1000, " mm"))
       ->capture_default_str();
   cmd->add_option("--memory", c->job.memory_mb,
                   "memory budget, MB: the scan fits into it (narrower knot windows, pith crops on "
                   "disk) or is refused before a slice is read")
-      ->check(CLI::Range(1.0, 1e7))
+      ->check(number_in(1, 1e7, " MB"))
       ->capture_default_str();
   cmd->add_option("--qa-slices", c->job.qa_slices, "how many slices to draw in qa/")
       ->capture_default_str();

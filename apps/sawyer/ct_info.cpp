@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_checks.h"
 #include "cli_error.h"
 #include "ct_options.h"
 #include "sawyer/ct/io/limits.h"
@@ -16,51 +17,19 @@
 
 namespace sawyer::app {
 
-namespace {
-
-// A finite number within [lo, hi] (CLI::Range lets NaN through: every comparison with it is
-// false), and with |v| >= min_magnitude when that is set (a slope of 1e-300 is zero in effect).
-CLI::Validator finite_range(double lo, double hi, const std::string& unit,
-                            double min_magnitude = 0) {
-  const auto text = [](double v) {
-    std::ostringstream s;
-    s << v;
-    return s.str();
-  };
-  std::string range = text(lo) + " to " + text(hi) + unit;
-  if (min_magnitude > 0) range += ", at least " + text(min_magnitude) + " away from 0";
-  return CLI::Validator(
-      [=](std::string& in) -> std::string {
-        double v = 0;
-        try {
-          size_t used = 0;
-          v = std::stod(in, &used);
-          if (used != in.size()) return "must be a number (" + range + "), got " + in;
-        } catch (const std::exception&) {
-          return "must be a number (" + range + "), got " + in;
-        }
-        if (!std::isfinite(v) || v < lo || v > hi || std::abs(v) < min_magnitude)
-          return in + " is outside " + range;
-        return std::string();
-      },
-      "NUMBER in " + range);
-}
-
-}  // namespace
-
 void add_ct_options(CLI::App* cmd, CtCliOptions& o) {
   cmd->add_option("--series", o.series,
                   "DICOM: which series of a folder holding several (UID, UID prefix, or number)");
   cmd->add_option("--pixel-spacing", o.pixel_spacing, "image stacks: pixel size in mm")
-      ->check(finite_range(ct::kMinSpacingMm, ct::kMaxSpacingMm, " mm"));
+      ->check(number_in(ct::kMinSpacingMm, ct::kMaxSpacingMm, " mm"));
   cmd->add_option("--slice-spacing", o.slice_spacing, "image stacks: distance between slices, mm")
-      ->check(finite_range(ct::kMinSpacingMm, ct::kMaxSpacingMm, " mm"));
+      ->check(number_in(ct::kMinSpacingMm, ct::kMaxSpacingMm, " mm"));
   cmd->add_option("--rescale-slope", o.rescale_slope,
                   "image stacks: HU = slope * value + intercept")
-      ->check(finite_range(-ct::kMaxAbsRescaleSlope, ct::kMaxAbsRescaleSlope, "",
-                           ct::kMinAbsRescaleSlope));
+      ->check(number_in(-ct::kMaxAbsRescaleSlope, ct::kMaxAbsRescaleSlope, "",
+                        ct::kMinAbsRescaleSlope));
   cmd->add_option("--rescale-intercept", o.rescale_intercept, "image stacks: see --rescale-slope")
-      ->check(finite_range(-ct::kMaxAbsRescaleIntercept, ct::kMaxAbsRescaleIntercept, " HU"));
+      ->check(number_in(-ct::kMaxAbsRescaleIntercept, ct::kMaxAbsRescaleIntercept, " HU"));
   cmd->add_flag("--strict-z", o.strict_z,
                 "refuse uneven slice spacing or missing slices instead of resampling along z");
   cmd->add_flag("--allow-gaps", o.allow_gaps,

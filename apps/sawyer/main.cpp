@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "cli_checks.h"
 #include "cli_error.h"
 #include "cmd_phantom.h"
 #ifdef SAWYER_HAVE_RENDER
@@ -169,7 +170,7 @@ int main(int argc, char** argv) {
   convert
       ->add_option("--format", conv_format,
                    "log | published | float (default: log for .json, else published)")
-      ->check(CLI::IsMember({"log", "published", "float"}));
+      ->check(app::one_of({"log", "published", "float"}));
 
   std::string gen_species = "spruce", gen_out, gen_position = "drawn", gen_ecc;
   std::uint64_t gen_seed = 1;
@@ -223,8 +224,10 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     // --help and --version exit 0; every command-line error is bad input (exit 1), whatever
-    // CLI11's own code for it.
-    return app.exit(e) == 0 ? kExitOk : kExitBadInput;
+    // CLI11's own code for it, said in one line like every other refusal.
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::cerr << "sawyer: " << app::parse_error_line(app, e, {argv + 1, argv + argc}) << "\n";
+    return kExitBadInput;
   }
 
   if (*info) return cmd_info(info_in, info_ct);
