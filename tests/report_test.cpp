@@ -17,6 +17,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sawyer/render/image.h"
@@ -311,6 +312,55 @@ TEST(Report, StatesTheScannerFrameOfTheScan) {
   const Json rep = Json::parse(read(dir / "report/report.json"));
   EXPECT_NEAR(rep["position"]["scanner"]["turn_deg"].get<double>(), sc["turn_deg"].get<double>(),
               1e-9);
+}
+
+// Issue 44: the header's line (the run's date, the scan's description, the version) ran off the
+// right edge of page 1. With a long description and a long log id, every word of the PDF lies
+// inside the page's margins, the description is wrapped (at most three lines, then cut with
+// "…"), and the id is still there.
+TEST(Report, HeaderStaysInsideThePageWithALongDescriptionAndLogId) {
+  REQUIRE_TOOL("pdftotext");
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  const std::string id = "gran1_spruce_from_the_yard_of_the_northern_mill_log_number_000123";
+  for (const auto& [file, key] : {std::pair{"scan/log.json", "id"}, std::pair{"sawing.json", "log"},
+                                  std::pair{"run.json", "log_id"}}) {
+    Json j = Json::parse(read(dir / file));
+    j[key] = id;
+    if (std::string(file) == "run.json") {
+      std::string d = "CT \"Microtec CT.LOG\" series 3 of study 1.2.840.113619.2.55.3.604688119.";
+      for (int i = 0; i < 40; ++i) d += " word" + std::to_string(i);
+      d += " reconstructed with the bone kernel at 0.8 mm";
+      j["scan_description"] = d;
+    }
+    test::write_file(dir / file, j.dump(1));
+  }
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  std::string out;
+  ASSERT_EQ(shell("pdftotext -bbox " + test::quoted(dir / "report/report.pdf") + " -", &out), 0);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("<page width=\"([0-9.]+)\""))) << out;
+  const double width = std::stod(m[1]);
+  const std::regex word(
+      "<word xMin=\"([0-9.]+)\" yMin=\"([0-9.]+)\" xMax=\"([0-9.]+)\"[^>]*>([^<]*)</word>");
+  int words = 0;
+  std::string page1;
+  const size_t page2 = out.find("<page", out.find("<page") + 1);
+  for (auto it = std::sregex_iterator(out.begin(), out.end(), word); it != std::sregex_iterator();
+       ++it) {
+    const double x0 = std::stod((*it)[1]), x1 = std::stod((*it)[3]);
+    ++words;
+    EXPECT_GE(x0, 30.0) << (*it)[4];
+    EXPECT_LE(x1, width - 30.0) << "'" << (*it)[4] << "' runs off the page (" << x1 << " of "
+                                << width << ")";
+    if (static_cast<size_t>(it->position()) < page2) page1 += std::string((*it)[4]) + " ";
+  }
+  EXPECT_GT(words, 100);
+  EXPECT_NE(page1.find("Microtec"), std::string::npos) << page1;
+  EXPECT_NE(page1.find("word10"), std::string::npos) << "wrapped onto a second line: " << page1;
+  EXPECT_EQ(page1.find("kernel"), std::string::npos) << "cut after three lines: " << page1;
+  EXPECT_NE(page1.find("\u2026"), std::string::npos) << page1;
+  EXPECT_NE(page1.find("log_number"), std::string::npos) << "the id, whole or shortened";
 }
 
 // A saw set-up that is not two [x, y, z] points is refused, naming the key.

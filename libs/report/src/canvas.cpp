@@ -27,6 +27,62 @@ double text_width(cairo_t* cr, const std::string& text) {
   return e.x_advance;
 }
 
+std::string fit_text(cairo_t* cr, const std::string& text, double width) {
+  if (text_width(cr, text) <= width) return text;
+  const std::string ellipsis = "\u2026";
+  // The longest head that fits, by bisection over byte counts, then back to a character's start.
+  size_t lo = 0, hi = text.size();
+  while (hi - lo > 1) {
+    const size_t mid = (lo + hi) / 2;
+    (text_width(cr, text.substr(0, mid) + ellipsis) <= width ? lo : hi) = mid;
+  }
+  while (lo > 0 && (static_cast<unsigned char>(text[lo]) & 0xC0) == 0x80) --lo;
+  while (lo > 0 && text[lo - 1] == ' ') --lo;
+  return text.substr(0, lo) + ellipsis;
+}
+
+std::vector<std::string> wrapped_lines(cairo_t* cr, const std::string& text, double width,
+                                       int max_lines) {
+  std::vector<std::string> lines;
+  std::string line;
+  size_t at = 0;
+  // Words separated by spaces; each line takes as many as fit.
+  auto next_word = [&]() -> std::string {
+    while (at < text.size() && text[at] == ' ') ++at;
+    const size_t end = std::min(text.find(' ', at), text.size());
+    std::string w = text.substr(at, end - at);
+    at = end;
+    return w;
+  };
+  for (std::string word = next_word(); !word.empty(); word = next_word()) {
+    std::string cand = line.empty() ? word : line + " " + word;
+    if (text_width(cr, cand) <= width) {
+      line = std::move(cand);
+      continue;
+    }
+    if (!line.empty()) lines.push_back(line);
+    // A word wider than a line: its longest head that fits, at a character's start.
+    while (text_width(cr, word) > width && static_cast<int>(lines.size()) < max_lines) {
+      size_t cut = word.size() - 1;
+      while (cut > 1 && text_width(cr, word.substr(0, cut)) > width) --cut;
+      while (cut > 1 && (static_cast<unsigned char>(word[cut]) & 0xC0) == 0x80) --cut;
+      lines.push_back(word.substr(0, cut));
+      word = word.substr(cut);
+    }
+    line = word;
+    if (static_cast<int>(lines.size()) == max_lines) break;
+  }
+  if (static_cast<int>(lines.size()) < max_lines) {
+    if (!line.empty()) lines.push_back(line);
+    return lines;
+  }
+  while (at < text.size() && text[at] == ' ') ++at;
+  if (line.empty() && at >= text.size()) return lines;
+  // Text left over: the last line ends in "…" to say so.
+  lines.back() = fit_text(cr, lines.back() + (line.empty() ? "" : " " + line) + " \u2026", width);
+  return lines;
+}
+
 double draw_text(cairo_t* cr, const std::string& text, double x, double y, double align) {
   const double w = text_width(cr, text);
   cairo_move_to(cr, x - align * w, y);

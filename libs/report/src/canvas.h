@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "sawyer/core/result.h"
 #include "sawyer/render/image.h"
@@ -42,6 +43,14 @@ void set_font(cairo_t* cr, double size, bool bold = false);
 // advance width.
 double draw_text(cairo_t* cr, const std::string& text, double x, double y, double align = 0.0);
 double text_width(cairo_t* cr, const std::string& text);
+// `text` as it is when it is at most `width` wide in the current font, else its longest head
+// (whole UTF-8 characters) that fits with "…" after it.
+std::string fit_text(cairo_t* cr, const std::string& text, double width);
+// `text` in lines at most `width` wide in the current font, broken between words (a word wider
+// than a line is broken where it must), at most `max_lines` of them: the last one ends in "…"
+// when some text is left over.
+std::vector<std::string> wrapped_lines(cairo_t* cr, const std::string& text, double width,
+                                       int max_lines);
 
 // An opaque RGB24 surface of w x h, filled white, and a context on it.
 SurfacePtr new_raster(int w, int h);

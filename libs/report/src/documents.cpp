@@ -117,19 +117,29 @@ class PdfWriter {
     cairo_fill(cr_);
     set_font(cr_, 20, true);
     set_color(cr_, kInk);
-    draw_text(cr_, "Cutting report", kMargin, 52);
-    set_font(cr_, 20);
+    const double title_w = draw_text(cr_, "Cutting report", kMargin, 52);
+    // The log's id to the right of the title, smaller or shortened when it is long: everything
+    // in the header stays inside the page's margins (issue 44).
+    const double id_w = kContentW - title_w - 16;
+    double id_size = 20;
+    set_font(cr_, id_size);
+    while (id_size > 11 && text_width(cr_, c_.run->log.id) > id_w) set_font(cr_, id_size -= 1);
     set_color(cr_, kAccent);
-    draw_text(cr_, c_.run->log.id, kPageW - kMargin, 52, 1.0);
-    set_font(cr_, 8.5);
+    draw_text(cr_, fit_text(cr_, c_.run->log.id, id_w), kPageW - kMargin, 52, 1.0);
     set_color(cr_, kMuted);
     const RunInfo& r = c_.run->run;
-    draw_text(cr_,
-              "Run " + or_none(r.date) + "   ·   scan: " + or_none(r.scan_description) +
-                  "   ·   Sawyer " + or_none(r.sawyer_version),
-              kMargin, 68);
-    rule(76);
-    y_ = 96;
+    // The scan's description (the DICOM series' words, a folder's name) is wrapped to the page,
+    // at most three lines: a longer one is cut there (run.json has it whole).
+    constexpr double kLead = 11;
+    constexpr int kMaxLines = 3;
+    set_font(cr_, 8.5);
+    const std::string line = "Run " + or_none(r.date) + " · scan: " + or_none(r.scan_description) +
+                             " · Sawyer " + or_none(r.sawyer_version);
+    const std::vector<std::string> lines = wrapped_lines(cr_, line, kContentW, kMaxLines);
+    for (size_t i = 0; i < lines.size(); ++i) draw_text(cr_, lines[i], kMargin, 68 + kLead * i);
+    const double h = kLead * static_cast<double>(lines.size());
+    rule(76 + h - kLead);
+    y_ = 96 + h - kLead;
     // What the scan's reader had to do (e.g. slices interpolated over a gap) is part of what
     // the figures below rest on: stated on every page, under the header.
     if (!r.scan_notes.empty()) {
@@ -140,7 +150,7 @@ class PdfWriter {
         std::string n = "Scan: " + r.scan_notes[i];
         if (i + 1 == kMaxNotes && r.scan_notes.size() > kMaxNotes)
           n += "  (and " + std::to_string(r.scan_notes.size() - kMaxNotes) + " more in run.json)";
-        draw_text(cr_, n, kMargin, y_ - 6);
+        draw_text(cr_, fit_text(cr_, n, kContentW), kMargin, y_ - 6);
         y_ += 12;
       }
       y_ += 6;
@@ -159,7 +169,7 @@ class PdfWriter {
       if (page_ == 1) {
         set_font(cr_, 7.5);
         for (size_t i = 0; i < qa->warnings.size() && i < 4; ++i) {
-          draw_text(cr_, "QA: " + qa->warnings[i], kMargin, y_ - 6);
+          draw_text(cr_, fit_text(cr_, "QA: " + qa->warnings[i], kContentW), kMargin, y_ - 6);
           y_ += 11;
         }
       }
@@ -170,7 +180,8 @@ class PdfWriter {
   void footer() {
     set_font(cr_, 7.5);
     set_color(cr_, kMuted);
-    draw_text(cr_, "Sawyer cutting report · log " + c_.run->log.id, kMargin, kPageH - 24);
+    draw_text(cr_, fit_text(cr_, "Sawyer cutting report · log " + c_.run->log.id, kContentW - 60),
+              kMargin, kPageH - 24);
     draw_text(cr_, "page " + std::to_string(page_), kPageW - kMargin, kPageH - 24, 1.0);
   }
 
