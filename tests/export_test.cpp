@@ -1,4 +1,5 @@
-// sawyer::export and `sawyer export`: the .glb container against the glTF 2.0 layout, a board's
+// sawyer::export and `sawyer export`: the .glb container against the glTF 2.0 layout (and the
+// .gltf with its files beside it against the .glb), a board's
 // baked atlas read back through the mesh's texture coordinates against the renderer's own
 // image of each face, the normal and roughness maps' properties, the boards of a sawing.json by
 // number, grade and size, refusals of bad input, and (where installed) the Khronos glTF
@@ -73,6 +74,23 @@ Glb read_glb(const fs::path& p) {
   std::vector<std::uint8_t> b((std::istreambuf_iterator<char>(f)),
                               std::istreambuf_iterator<char>());
   return parse_glb(b);
+}
+
+std::vector<std::uint8_t> file_bytes(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+// A .gltf and the .bin its buffer names, as a Glb (the JSON and the binary buffer).
+Glb read_gltf(const fs::path& p) {
+  Glb g;
+  std::ifstream f(p);
+  g.j = json::parse(f);
+  EXPECT_EQ(g.j["buffers"].size(), 1u);
+  const std::string uri = g.j["buffers"][0]["uri"];
+  g.bin = file_bytes(p.parent_path() / uri);
+  EXPECT_EQ(g.j["buffers"][0]["byteLength"].get<size_t>(), g.bin.size());
+  return g;
 }
 
 std::vector<std::uint8_t> view_bytes(const Glb& g, int view) {
@@ -410,8 +428,9 @@ TEST(BoardBake, SupersampledMapsAreTheMeanOfTheirSamples) {
 std::string gran1() { return test::quoted(test::sample_log("gran1_spruce") / "log.json"); }
 
 // gran1 sawn at rotation 30, offset 2 into dir/sawing.json, its boards exported at 0.2 px/mm
-// to dir/boards.glb; `flags` go to the export.
-void saw_and_export(const test::TempDir& dir, const std::string& flags, std::string* out) {
+// to dir/<name> (boards.glb); `flags` go to the export.
+void saw_and_export(const test::TempDir& dir, const std::string& flags, std::string* out,
+                    const std::string& name = "boards.glb") {
   ASSERT_EQ(
       test::run_sawyer(
           "saw " + gran1() + " -q --position 30,2 -o " + test::quoted(dir / "sawing.json"), out),
@@ -419,10 +438,17 @@ void saw_and_export(const test::TempDir& dir, const std::string& flags, std::str
       << *out;
   ASSERT_EQ(test::run_sawyer("export " + gran1() + " " + flags + "--sawing " +
                                  test::quoted(dir / "sawing.json") + " --px-per-mm 0.2 -o " +
-                                 test::quoted(dir / "boards.glb"),
+                                 test::quoted(dir / name),
                              out),
             0)
       << *out;
+}
+
+std::vector<std::string> listing(const fs::path& dir) {
+  std::vector<std::string> v;
+  for (const auto& e : fs::directory_iterator(dir)) v.push_back(e.path().filename().string());
+  std::sort(v.begin(), v.end());
+  return v;
 }
 
 // The boards of a sawing.json: one node each, named by number and grade, each box's edges the
@@ -457,15 +483,97 @@ TEST(ExportCli, SawingBoardsByNumberGradeAndSize) {
   }
 }
 
+// Issue 44: `-o boards.gltf` was refused. The text form holds the same scene as the .glb: the
+// JSON, its geometry in boards.bin and every texture a PNG file beside it, named by board and
+// map; nothing else is left in the folder.
+TEST(ExportCli, TextGltfHoldsTheSameBoardsWithItsFilesBeside) {
+  test::TempDir dir;
+  std::string out;
+  ASSERT_NO_FATAL_FAILURE(saw_and_export(dir, "", &out));
+  ASSERT_NO_FATAL_FAILURE(saw_and_export(dir, "", &out, "boards.gltf"));
+  EXPECT_NE(out.find("wrote " + (dir / "boards.gltf").string() + " and "), std::string::npos)
+      << out;
+  const Glb glb = read_glb(dir / "boards.glb");
+  const Glb gltf = read_gltf(dir / "boards.gltf");
+  EXPECT_EQ(gltf.j["buffers"][0]["uri"], "boards.bin");
+  EXPECT_EQ(gltf.j["asset"]["generator"], "Sawyer export");
+  ASSERT_EQ(gltf.j["nodes"], glb.j["nodes"]);
+  ASSERT_EQ(gltf.j["meshes"], glb.j["meshes"]);
+  ASSERT_EQ(gltf.j["images"].size(), glb.j["images"].size());
+  std::vector<std::string> expected = {"boards.bin", "boards.glb", "boards.gltf", "sawing.json"};
+  const size_t boards = gltf.j["nodes"].size();
+  ASSERT_GT(boards, 1u);
+  ASSERT_EQ(gltf.j["images"].size(), 3 * boards);
+  for (size_t b = 1; b <= boards; ++b)
+    for (const char* map : {"color", "normal", "roughness"})
+      expected.push_back("boards_board" + std::to_string(b) + "_" + map + ".png");
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(listing(dir.path()), expected);
+  // The same geometry, and the same PNG files as the .glb holds.
+  for (size_t m = 0; m < gltf.j["meshes"].size(); ++m) {
+    const json& prim = gltf.j["meshes"][m]["primitives"][0];
+    for (const char* attr : {"POSITION", "NORMAL", "TEXCOORD_0", "TANGENT"})
+      EXPECT_EQ(floats(gltf, prim["attributes"][attr]), floats(glb, prim["attributes"][attr]))
+          << attr;
+  }
+  for (size_t i = 0; i < gltf.j["images"].size(); ++i) {
+    const std::string uri = gltf.j["images"][i]["uri"];
+    EXPECT_EQ(file_bytes(dir / uri), view_bytes(glb, glb.j["images"][i]["bufferView"])) << uri;
+    EXPECT_EQ(gltf.j["images"][i]["name"], glb.j["images"][i]["name"]);
+  }
+}
+
+// A .gltf's files beside it never replace the user's: a .bin or a PNG of the same name that no
+// earlier Sawyer .gltf of that name lists is refused before any work. Its own earlier export is
+// replaced, and the files it no longer uses go with it.
+TEST(ExportCli, TextGltfNeverReplacesFilesItDidNotWrite) {
+  test::TempDir dir;
+  std::string out;
+  for (const char* theirs : {"b.bin", "b_board1_normal.png"}) {
+    test::write_file(dir / theirs, "mine\n");
+    const std::vector<std::string> before = listing(dir.path());
+    EXPECT_EQ(test::run_sawyer("export " + gran1() + " --board " + kBoard + " -o " +
+                                   test::quoted(dir / "b.gltf"),
+                               &out),
+              1)
+        << out;
+    EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+    EXPECT_NE(out.find("sawyer: -o: "), std::string::npos) << out;
+    EXPECT_NE(out.find(std::string(theirs) + " exists and is not a file of an earlier Sawyer"),
+              std::string::npos)
+        << out;
+    EXPECT_EQ(listing(dir.path()), before);
+    fs::remove(dir / theirs);
+  }
+  // Two boards, then one: the second board's images are the export's own, and go.
+  const std::string two = std::string(" --board ") + kBoard + " --board 0,-40,150,50,0,1000,2200";
+  ASSERT_EQ(
+      test::run_sawyer(
+          "export " + gran1() + two + " --px-per-mm 0.2 -o " + test::quoted(dir / "c.gltf"), &out),
+      0)
+      << out;
+  EXPECT_TRUE(fs::exists(dir / "c_board2_roughness.png"));
+  test::write_file(dir / "c_notes.png", "mine\n");
+  ASSERT_EQ(test::run_sawyer("export " + gran1() + " --board " + kBoard + " --px-per-mm 0.2 -o " +
+                                 test::quoted(dir / "c.gltf"),
+                             &out),
+            0)
+      << out;
+  EXPECT_EQ(listing(dir.path()), (std::vector<std::string>{
+                                     "c.bin", "c.gltf", "c_board1_color.png", "c_board1_normal.png",
+                                     "c_board1_roughness.png", "c_notes.png"}));
+  EXPECT_EQ(read_gltf(dir / "c.gltf").j["nodes"].size(), 1u);
+}
+
 TEST(ExportCli, BadInputOneLineNothingWritten) {
   test::TempDir dir;
   std::string out;
   EXPECT_EQ(
       test::run_sawyer(
-          "export " + gran1() + " --board " + kBoard + " -o " + test::quoted(dir / "b.gltf"), &out),
+          "export " + gran1() + " --board " + kBoard + " -o " + test::quoted(dir / "b.obj"), &out),
       1);
   EXPECT_NE(out.find("-o: "), std::string::npos) << out;
-  EXPECT_NE(out.find("not a .glb"), std::string::npos) << out;
+  EXPECT_NE(out.find("not a .glb or .gltf"), std::string::npos) << out;
   EXPECT_EQ(test::run_sawyer("export " + gran1() + " -o " + test::quoted(dir / "b.glb"), &out), 1);
   EXPECT_NE(out.find("sawyer export: no boards"), std::string::npos) << out;
   EXPECT_EQ(test::run_sawyer("export " + gran1() + " --board " + kBoard + " --px-per-mm 20 -o " +
@@ -534,11 +642,15 @@ TEST(ExportTools, KhronosValidatorFindsNoErrors) {
   test::TempDir dir;
   std::string out;
   ASSERT_NO_FATAL_FAILURE(saw_and_export(dir, "-q ", &out));
-  const int rc = test::run_command(
-      "node " + test::quoted(tools / "validate.js") + " " + test::quoted(dir / "boards.glb"), &out);
-  std::cout << out;
-  EXPECT_EQ(rc, 0) << out;
-  EXPECT_NE(out.find(": 0 errors, 0 warnings"), std::string::npos) << out;
+  ASSERT_NO_FATAL_FAILURE(saw_and_export(dir, "-q ", &out, "boards.gltf"));
+  // The .glb, and the .gltf with the .bin and images it names (issue 44).
+  for (const char* file : {"boards.glb", "boards.gltf"}) {
+    const int rc = test::run_command(
+        "node " + test::quoted(tools / "validate.js") + " " + test::quoted(dir / file), &out);
+    std::cout << out;
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_NE(out.find(": 0 errors, 0 warnings"), std::string::npos) << file << "\n" << out;
+  }
 }
 
 // Blender's glTF importer finds the board with its size and three textures, and Cycles renders
@@ -579,6 +691,30 @@ TEST(ExportTools, BlenderImportsAndCyclesRendersTheFace) {
             << ")\n";
   EXPECT_LT(d, 0.08);
   EXPECT_LT(d, 0.6 * turned);
+
+  // The same board as text glTF (issue 44): Blender's importer finds it with its size and its
+  // three textures read from the files beside it, and Cycles renders the face as from the .glb.
+  Result<ExportSummary> t =
+      run_export(test::sample_model("gran1_spruce"), one_board(dir / "b.gltf", k));
+  ASSERT_TRUE(t.ok()) << t.error().message();
+  EXPECT_EQ(t.value().files.size(), 4u) << "b.bin and three images";
+  rc = test::run_command(blender + test::quoted(tools / "check_glb.py") + " -- " +
+                             test::quoted(dir / "b.gltf") + " " +
+                             test::quoted(dir / "expect.json") + " 2>&1",
+                         &out);
+  EXPECT_EQ(rc, 0) << out;
+  EXPECT_NE(out.find("check_glb: OK, 1 boards"), std::string::npos) << out;
+  rc = test::run_command(blender + test::quoted(tools / "render_boards.py") + " -- " +
+                             test::quoted(dir / "b.gltf") + " " + test::quoted(dir / "face2.png") +
+                             " face \"board 1\" " + std::to_string(w) + " " + std::to_string(h) +
+                             " 16 2>&1",
+                         &out);
+  ASSERT_EQ(rc, 0) << out;
+  Result<render::Image> cycles_text = render::read_image(dir / "face2.png");
+  ASSERT_TRUE(cycles_text.ok()) << cycles_text.error().message();
+  const double same = mean_abs_diff(cycles_text.value(), cycles.value());
+  std::cout << "Cycles, .gltf vs .glb: mean |diff| " << same << "\n";
+  EXPECT_LT(same, 0.01);
 }
 
 }  // namespace

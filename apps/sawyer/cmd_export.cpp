@@ -1,5 +1,6 @@
 // `sawyer export`: parses the options into ExportOptions (libs/export/export_job.h), loads the
-// log, bakes the boards headless (EGL) and writes the .glb atomically.
+// log, bakes the boards headless (EGL) and writes the .glb (or the .gltf and its files)
+// atomically.
 #include "cmd_export.h"
 #include "cli_error.h"
 
@@ -69,10 +70,15 @@ void add_export_command(CLI::App& app, std::function<int()>& run_out) {
   auto c = std::make_shared<ExportCli>();
   CLI::App* cmd = app.add_subcommand(
       "export",
-      "Export boards as binary glTF 2.0 (.glb): a mesh per board in metres with baked colour, "
-      "normal and roughness textures of every face (docs/export.md)");
+      "Export boards as glTF 2.0, binary (.glb) or text (.gltf with its .bin and PNG textures "
+      "beside it): a mesh per board in metres with baked colour, normal and roughness textures "
+      "of every face (docs/export.md)");
   cmd->add_option("input", c->input, "log.json (or a maps / stem-bank folder)")->required();
-  cmd->add_option("-o,--output", c->output, "the .glb to write")->required();
+  cmd->add_option(
+         "-o,--output", c->output,
+         "the .glb or .gltf to write (a .gltf writes <name>.bin and <name>_board<N>_<map>.png "
+         "beside it)")
+      ->required();
   cmd->add_option("--sawing", c->sawing,
                   "sawing.json of `sawyer saw` or `sawyer run`: its boards at the chosen position");
   cmd->add_option("--board", c->boards,

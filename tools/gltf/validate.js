@@ -1,5 +1,6 @@
 #!/usr/bin/env node
-// Validates .glb / .gltf files with the Khronos glTF validator (npm package gltf-validator):
+// Validates .glb / .gltf files with the Khronos glTF validator (npm package gltf-validator), a
+// .gltf with the files its URIs name beside it:
 // prints each error and warning as "file: SEVERITY CODE pointer: message", then one line per
 // file "file: N errors, N warnings, N infos, N hints" and, with --json, the whole report.
 // Exit code: 0 when no file has an error, 1 otherwise, 2 on bad usage or an unreadable file.
@@ -24,8 +25,13 @@ async function validateFile(file, json) {
   const report = await validator.validateBytes(new Uint8Array(bytes), {
     uri: path.basename(file),
     maxIssues: 1000,
-    externalResourceFunction: (uri) =>
-      Promise.reject(new Error(`${uri}: external resources are not expected in Sawyer's files`)),
+    // A .gltf's buffer and images: plain file names beside it (percent-encoded URIs).
+    externalResourceFunction: (uri) => {
+      const name = decodeURIComponent(uri);
+      if (name.includes('/') || name === '..' || name === '.')
+        return Promise.reject(new Error(`${uri}: not a file beside ${file}`));
+      return fs.promises.readFile(path.join(path.dirname(file), name)).then((b) => new Uint8Array(b));
+    },
   });
   const issues = report.issues;
   for (const m of issues.messages) {

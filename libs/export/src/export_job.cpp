@@ -63,6 +63,15 @@ Result<std::vector<NamedBoard>> sawing_boards(const LogModel& log, const fs::pat
   return out;
 }
 
+// The three maps' names of boards 1..n, in the order they are baked: "board3_color", ...
+std::vector<std::string> image_names(size_t n) {
+  std::vector<std::string> names;
+  for (size_t b = 1; b <= n; ++b)
+    for (const char* map : {"color", "normal", "roughness"})
+      names.push_back("board" + std::to_string(b) + "_" + map);
+  return names;
+}
+
 std::string board_name(const NamedBoard& b) {
   return "board " + std::to_string(b.number) + (b.grade.empty() ? "" : " (" + b.grade + ")");
 }
@@ -97,9 +106,11 @@ GlbMesh board_mesh(const BakedBoard& baked, int atlas_w, int atlas_h) {
 
 Status check_export(const ExportOptions& o) {
   if (o.output.empty()) return Error("ExportOptions::output", "no output file given");
-  if (o.output.extension() != ".glb")
-    return Error("ExportOptions::output",
-                 o.output.string() + ": not a .glb file (binary glTF 2.0 is written)");
+  if (o.output.extension() != ".glb" && o.output.extension() != ".gltf")
+    return Error(
+        "ExportOptions::output",
+        o.output.string() +
+            ": not a .glb or .gltf file (glTF 2.0, binary or text with its files beside it)");
   if (o.sawing.empty() == o.boards.empty())
     return Error("ExportOptions", o.sawing.empty() ? "no boards: give a sawing file or boards"
                                                    : "give a sawing file or boards, not both");
@@ -123,9 +134,11 @@ Status check_export(const ExportOptions& o) {
 std::string ExportSummary::brief(const fs::path& output, double px_per_mm) const {
   std::ostringstream s;
   s.precision(3);
-  s << "wrote " << output.string() << ": " << boards.size() << " board"
-    << (boards.size() == 1 ? "" : "s") << " of log " << log_id << ", " << byte_size_text(bytes)
-    << ", " << px_per_mm << " px/mm, " << seconds << " s (" << context << ")";
+  s << "wrote " << output.string();
+  if (!files.empty()) s << " and " << files.size() << " files beside it";
+  s << ": " << boards.size() << " board" << (boards.size() == 1 ? "" : "s") << " of log " << log_id
+    << ", " << byte_size_text(bytes) << ", " << px_per_mm << " px/mm, " << seconds << " s ("
+    << context << ")";
   return s.str();
 }
 
@@ -137,6 +150,20 @@ Result<ExportSummary> run_export(const LogModel& log, const ExportOptions& o) {
     Result<std::vector<NamedBoard>> r = sawing_boards(log, o.sawing);
     if (!r) return r.error();
     boards = std::move(r).value();
+  }
+
+  // A .gltf keeps its .bin and images beside it: those names must be free, or an earlier
+  // export's of the same name, before any work (nothing of the user's is replaced).
+  const bool text_gltf = o.output.extension() == ".gltf";
+  if (text_gltf) {
+    GlbScene names;
+    const size_t n = o.sawing.empty() ? o.boards.size() : boards.size();
+    names.images.resize(3 * n);
+    names.image_names = image_names(n);
+    if (Status st = check_gltf_sidecars(o.output, gltf_sidecars(o.output, names),
+                                        {o.sawing, o.color_maps}, "ExportOptions::output");
+        !st)
+      return st.error();
   }
 
   Result<std::unique_ptr<render::GlContext>> ctx = render::create_headless_context();
@@ -175,6 +202,7 @@ Result<ExportSummary> run_export(const LogModel& log, const ExportOptions& o) {
   bake.supersample = o.supersample;
   bake.color_maps = o.color_maps;
   GlbScene scene;
+  scene.image_names = image_names(boards.size());
   scene.name = "log " + log.id;
   scene.generator = "Sawyer export";
   scene.extras = {{"log_id", log.id},
@@ -215,9 +243,14 @@ Result<ExportSummary> run_export(const LogModel& log, const ExportOptions& o) {
   }
   if (!o.osl_data.empty())
     if (Status st = write_osl_data(o.osl_data, log, ro); !st) return st.error();
-  if (Status st = write_glb(o.output, scene); !st) return st.error();
+  if (Status st = text_gltf ? write_gltf(o.output, scene) : write_glb(o.output, scene); !st)
+    return st.error();
   std::error_code ec;
   summary.bytes = fs::file_size(o.output, ec);
+  if (text_gltf) {
+    summary.files = gltf_sidecars(o.output, scene);
+    for (const fs::path& f : summary.files) summary.bytes += fs::file_size(f, ec);
+  }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return summary;
 }
