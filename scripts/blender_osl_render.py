@@ -66,6 +66,9 @@ def main():
                              % (shader, missing))
         script.inputs["DataDir"].default_value = data
         for name, value in meta["parameters"].items():
+            # Colours come as [r, g, b]; a colour socket takes RGBA.
+            if isinstance(value, list) and len(value) == 3:
+                value = value + [1.0]
             script.inputs[name].default_value = value
         for link in list(bsdf.inputs["Base Color"].links):
             nt.links.remove(link)

@@ -1,7 +1,11 @@
 #include "sawyer/export/osl_data.h"
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
+#include <string>
 #include <system_error>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -25,6 +29,16 @@ render::Image float_table(int w, int h) {
 
 float* texel(render::Image& im, int x, int y) {
   return &im.f32[(static_cast<size_t>(y) * im.width + x) * 4];
+}
+
+// Integers one a texel (R), kOslTrackRow texels to a row.
+render::Image int_table(const std::vector<std::int32_t>& v) {
+  const int n = static_cast<int>(v.size());
+  render::Image im = float_table(kOslTrackRow, std::max(1, (n + kOslTrackRow - 1) / kOslTrackRow));
+  for (int i = 0; i < n; ++i)
+    texel(im, i % kOslTrackRow, i / kOslTrackRow)[0] =
+        static_cast<float>(v[static_cast<size_t>(i)]);
+  return im;
 }
 
 fs::path strip_folder(const render::RenderOptions& o) {
@@ -88,12 +102,57 @@ Status write_osl_data(const fs::path& dir, const LogModel& log,
   const int track_rows = std::max(1, (track_count + kOslTrackRow - 1) / kOslTrackRow);
   render::Image tracks = float_table(kOslTrackRow, track_rows);
   std::copy(t.tracks.begin(), t.tracks.end(), tracks.f32.begin());
+  // The knot index: one integer a texel (R), exact in a float up to 2^24.
+  for (const std::vector<std::int32_t>* v : {&t.cell_start, &t.cell_knots})
+    for (std::int32_t x : *v)
+      if (x < 0 || x > (1 << 24))
+        return Error("ExportOptions::osl_data",
+                     "the knot index has " + std::to_string(t.cell_knots.size()) +
+                         " entries, more than a float table holds exactly (2^24)");
+  const render::Image cell_start = int_table(t.cell_start);
+  const render::Image cell_knots = int_table(t.cell_knots);
+  // The look of wood.frag: the species' knot, bark-ring and heartwood colours, the strip's
+  // luminance; the renderer's default shading (knots darkened and dead knots ringed fully).
+  const render::WoodLook look =
+      render::wood_look(options.species.empty() ? log.species : options.species);
+  Result<render::ColorStripStats> strip = render::color_strip_stats(options);
+  if (!strip) return strip.error();
+  const render::ShadeOptions shade;
+  auto rgb = [](const std::array<float, 3>& c) {
+    return nlohmann::json::array({c[0], c[1], c[2]});
+  };
   // The scalars by the shader's parameter names (shaders/osl/sawyer_wood.osl).
   const nlohmann::ordered_json params = {
-      {"PithZ0", t.pith_z0},       {"PithStep", t.pith_step}, {"PithCount", pith_count},
-      {"StemZ0", t.stem_z0},       {"StemStep", t.stem_step}, {"StemCols", t.stem_cols},
-      {"StemRows", t.stem_rows},   {"KnotCount", knot_count}, {"TrackRows", track_rows},
-      {"TrackStep", t.track_step}, {"RRef", t.r_ref},         {"KnotNoise", t.knot_noise}};
+      {"PithZ0", t.pith_z0},
+      {"PithStep", t.pith_step},
+      {"PithCount", pith_count},
+      {"StemZ0", t.stem_z0},
+      {"StemStep", t.stem_step},
+      {"StemCols", t.stem_cols},
+      {"StemRows", t.stem_rows},
+      {"KnotCount", knot_count},
+      {"TrackRows", track_rows},
+      {"TrackStep", t.track_step},
+      {"RRef", t.r_ref},
+      {"KnotNoise", t.knot_noise},
+      {"CellZ0", t.cell_z0},
+      {"CellDz", t.cell_dz},
+      {"CellNz", t.cell_nz},
+      {"CellDr", t.cell_dr},
+      {"CellNr", t.cell_nr},
+      {"CellNs", t.cell_ns},
+      {"CellStartRows", cell_start.height},
+      {"CellKnotRows", cell_knots.height},
+      {"KnotSound", rgb(look.knot_sound)},
+      {"KnotDead", rgb(look.knot_dead)},
+      {"BarkRing", rgb(look.bark_ring)},
+      {"HeartTint", rgb(look.heart_tint)},
+      {"KnotRings", look.knot_rings},
+      {"StripLuma", strip.value().luma},
+      {"HeartwoodTint",
+       shade.heartwood_tint && look.heartwood_visible && log.stem.has_heartwood() ? 1 : 0},
+      {"KnotDarkening", shade.knot_darkening},
+      {"DeadOutline", shade.dead_outline}};
   nlohmann::ordered_json j = {{"format", kOslFormatTag},
                               {"log_id", log.id},
                               {"shader", "shaders/osl/sawyer_wood.osl"},
@@ -106,7 +165,9 @@ Status write_osl_data(const fs::path& dir, const LogModel& log,
     for (const auto& [name, img] : {std::pair<const char*, const render::Image*>{"pith.exr", &pith},
                                     {"stem.exr", &stem},
                                     {"knots.exr", &knots},
-                                    {"tracks.exr", &tracks}})
+                                    {"tracks.exr", &tracks},
+                                    {"cell_start.exr", &cell_start},
+                                    {"cell_knots.exr", &cell_knots}})
       if (Status st = render::write_image(tmp / name, *img); !st) return st;
     std::error_code ec;
     if (!strips.empty() && fs::is_regular_file(strips / "wood_bar_color.bmp", ec)) {

@@ -25,6 +25,14 @@ FieldTables field_tables(const LogModel& log, const RenderOptions& options) {
   for (const GpuKnot& k : g.knots)
     t.knots.push_back(
         {k.r_dead, k.r_end, k.d_dead, k.d_exp, k.half_dmax, k.track_offset, k.track_count, k.seed});
+  t.cell_z0 = g.index.z0;
+  t.cell_dz = g.index.dz;
+  t.cell_dr = g.index.dr;
+  t.cell_nz = g.index.nz;
+  t.cell_nr = g.index.nr;
+  t.cell_ns = g.index.ns;
+  t.cell_start = g.cell_start;
+  t.cell_knots = g.cell_knots;
   t.r_ref = g.r_ref;
   t.knot_noise = g.knot_noise;
   t.z_begin = g.z_begin;

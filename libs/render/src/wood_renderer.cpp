@@ -72,10 +72,7 @@ fs::path default_color_maps() {
 
 // The number of annual rings in a colour strip (its dark latewood bands: local luminance minima
 // at least 12/255 below the brightest pixel within ±15 px) and its mean luminance, 0-1.
-struct StripStats {
-  float rings = 40;
-  float luma = 0.8f;
-};
+using StripStats = ColorStripStats;
 
 StripStats strip_stats(const Strip& s) {
   std::vector<double> l(s.width);
@@ -96,6 +93,20 @@ StripStats strip_stats(const Strip& s) {
   st.rings = static_cast<float>(std::max(minima, 10));
   st.luma = static_cast<float>(sum / std::max(s.width, 1));
   return st;
+}
+
+// Strip `which` (0 colour, 1 normal, 2 specular) of RenderOptions::color_maps, else of the
+// bundled folder, else the built-in one.
+Result<Strip> strip_of(const RenderOptions& options, int which) {
+  const bool given = !options.color_maps.empty();
+  const fs::path dir = given ? options.color_maps : default_color_maps();
+  const char* names[3] = {kColorStrip, kNormalStrip, kSpecularStrip};
+  std::error_code ec;
+  const bool have_dir = fs::is_directory(dir, ec);
+  if (given && !have_dir)
+    return Error(dir.string(), "no such folder (expected the wood colour strips)");
+  if (!have_dir) return builtin_strip(which);
+  return load_strip(dir / names[which]);
 }
 
 struct Vertex {
@@ -156,6 +167,12 @@ WoodLook wood_look(const std::string& species, bool* known) {
   l.heartwood_visible = false;
   l.bark_default_mm = 6;
   return l;
+}
+
+Result<ColorStripStats> color_strip_stats(const RenderOptions& options) {
+  Result<Strip> s = strip_of(options, 0);
+  if (!s) return s.error();
+  return strip_stats(s.value());
 }
 
 Status RenderOptions::validate() const {
@@ -390,21 +407,10 @@ Result<std::unique_ptr<WoodRenderer>> WoodRenderer::create(const LogModel& log,
 
   // Colour strips first: a missing file is the likeliest user error.
   Strip strips[3];
-  const bool given = !options.color_maps.empty();
-  const fs::path dir = given ? options.color_maps : default_color_maps();
-  const char* names[3] = {kColorStrip, kNormalStrip, kSpecularStrip};
-  std::error_code ec;
-  const bool have_dir = fs::is_directory(dir, ec);
-  if (given && !have_dir)
-    return Error(dir.string(), "no such folder (expected the wood colour strips)");
   for (int i = 0; i < 3; ++i) {
-    if (have_dir) {
-      Result<Strip> s = load_strip(dir / names[i]);
-      if (!s) return s.error();
-      strips[i] = std::move(s).value();
-    } else {
-      strips[i] = builtin_strip(i);
-    }
+    Result<Strip> s = strip_of(options, i);
+    if (!s) return s.error();
+    strips[i] = std::move(s).value();
   }
 
   std::vector<std::string> defines;

@@ -10,8 +10,12 @@
 //                (half_dmax, track_offset, track_count, seed & 0xffff), (seed >> 16, 0, 0, 0)
 //   tracks.exr   kOslTrackRow × track_rows texels (x, y, z, azimuth), track i at
 //                (i mod kOslTrackRow, i / kOslTrackRow)
+//   cell_start.exr, cell_knots.exr   the knot index (render::FieldTables' cell_start and
+//                cell_knots), one integer a texel in R, laid out as tracks.exr
 //   wood_bar_color.bmp   the colour strip (when the colour maps are at hand)
-//   sawyer_osl.json      "sawyer-osl/1": the log id and the shader's scalar parameters by name
+//   sawyer_osl.json      "sawyer-osl/1": the log id and the shader's parameters by name: the
+//                tables' sizes and steps, the index's cells, and the look's colours ([r, g, b])
+//                and figures (wood.frag's, for the species of RenderOptions or the log)
 // All EXRs are 32-bit float RGBA, row 0 first.
 #pragma once
 

@@ -40,6 +40,14 @@ struct FieldTables {
   float track_step = 0.5f;
   std::vector<FieldKnot> knots;
   std::vector<float> tracks;
+  // The knot index (wood_log_data.glsl's cell_start[], cell_knots[]): cell (zc, rc, sc) of
+  // height from cell_z0 in steps of cell_dz, pith distance in steps of cell_dr and azimuth in
+  // cell_ns sectors is (zc × cell_nr + rc) × cell_ns + sc; it lists the knots
+  // cell_knots[cell_start[cell] .. cell_start[cell + 1]), those whose range of influence can
+  // reach it (the last band and the first and last heights take what lies beyond them).
+  float cell_z0 = 0, cell_dz = 20, cell_dr = 20;
+  int cell_nz = 1, cell_nr = 1, cell_ns = 1;
+  std::vector<std::int32_t> cell_start, cell_knots;
   // The field's parameters.
   float r_ref = 0, knot_noise = 0;
   float z_begin = 0, z_end = 0;

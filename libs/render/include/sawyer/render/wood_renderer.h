@@ -56,6 +56,13 @@ struct WoodLook {
 // get the spruce look, with `known` (when given) set false.
 WoodLook wood_look(const std::string& species, bool* known = nullptr);
 
+// What wood.frag is told of the colour strip (u_strip_rings, u_strip_luma): its annual rings
+// (dark latewood bands) and its mean luminance, 0-1.
+struct ColorStripStats {
+  float rings = 40;
+  float luma = 0.8f;
+};
+
 struct RenderOptions {
   // The field's parameters, the same as the CPU WoodField's (knot outline noise, reference radius).
   WoodFieldParams field;
@@ -75,6 +82,10 @@ struct RenderOptions {
 
   Status validate() const;
 };
+
+// The figures of the colour strip a renderer with `options` uses (RenderOptions::color_maps, the
+// bundled strip, or the built-in one); errors name the file.
+Result<ColorStripStats> color_strip_stats(const RenderOptions& options);
 
 struct ShadeOptions {
   ShadeMode mode = ShadeMode::kWood;
