@@ -96,7 +96,10 @@ Status check_geometry_limits(const std::string& where, const VolumeGeometry& g) 
   for (double v : g.orientation) {
     if (!in_range(v, -1.001, 1.001)) {
       std::string o;
-      for (double c : g.orientation) o += (o.empty() ? "" : " ") + num6(c);
+      for (double c : g.orientation) {
+        if (!o.empty()) o += ' ';
+        o += num6(c);
+      }
       return Error(where, "orientation (" + o + ") is not two sets of direction cosines");
     }
   }
