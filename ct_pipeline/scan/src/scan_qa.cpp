@@ -345,6 +345,13 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                   scan.pith_summary.whorl_slices, d.pith_expected_median_mm, d.pith_expected_p95_mm,
                   d.pith_limit_median_mm, d.pith_limit_p95_mm);
     st.notes.push_back(line);
+    if (scan.ring_shape_share != 1.0) {
+      std::snprintf(line, sizeof line,
+                    "rings rounder than the log: they line up best following %.0f %% of the "
+                    "outline's shape (measured on slices along the log)",
+                    100 * scan.ring_shape_share);
+      st.notes.push_back(line);
+    }
     // Where, and why (the most common reason in each run); the three longest runs.
     std::vector<Run> sorted = runs;
     std::sort(sorted.begin(), sorted.end(),

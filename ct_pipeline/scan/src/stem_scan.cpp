@@ -757,6 +757,36 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
   const int half =
       slices_within(g, options.refine.average_half_window_mm, options.refine.max_half_slices);
   const std::vector<Vec2> first = track;
+  // The rings' share of the outline's shape, measured on a few slices along the log with the
+  // first pass's wide search: the share whose rings line up best.
+  if (options.ring_shape_shares.size() > 1 && options.ring_shape_probes > 0) {
+    const int every = slice_step(g, ro.refine_spacing_mm);
+    std::vector<int> candidates;
+    for (int i = 0; i < n; ++i)
+      if ((i % every == 0 || i == n - 1) && scan.slices[static_cast<size_t>(i)].measured)
+        candidates.push_back(i);
+    std::vector<bool> probe(static_cast<size_t>(n), false);
+    const int np = std::min<int>(options.ring_shape_probes, static_cast<int>(candidates.size()));
+    for (int k = 0; k < np; ++k)
+      probe[static_cast<size_t>(
+          candidates[static_cast<size_t>((2 * k + 1) * candidates.size() / (2 * np))])] = true;
+    if (np > 0) {
+      const std::vector<std::vector<double>> outlines = outlines_around(track);
+      PithRefineOptions po = ro;
+      po.search_radius_mm = options.first_search_mm;
+      double best = -1;
+      for (double share : options.ring_shape_shares) {
+        po.ring_shape_share = share;
+        std::vector<double> conf;
+        for (const PithResult& q :
+             refine_pith_track(crops, z, track, g, options.pith, po, &outlines, &probe))
+          if (q.found) conf.push_back(q.confidence);
+        const double m = conf.empty() ? 0.0 : median(conf);
+        if (m > best) best = m, ro.ring_shape_share = share;
+      }
+    }
+  }
+  scan.ring_shape_share = ro.ring_shape_share;
   for (int pass = 0; pass <= options.refine_iterations; ++pass) {
     // The first pass searches wide (the first track lags where the pith turns), the others
     // narrowly around the track they correct.

@@ -775,7 +775,7 @@ WoodLevels wood_levels(const Slice& s, const PithOptions& options) {
 
 PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 start,
                                   double search_mm, const std::vector<double>* outline,
-                                  double ring_max_mm, double ring_min_mm) {
+                                  double ring_max_mm, double ring_min_mm, double shape_share) {
   PithResult res;
   const double sx = g.spacing_x, sy = g.spacing_y;
   const double ring_min = std::max(ring_min_mm, kRingMinMm);
@@ -810,7 +810,10 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
         const double w = azimuth_fast(dx, dy);
         const double R = (*outline)[static_cast<size_t>(std::lround(w / kTwoPi * na)) % na];
         if (!(R > 1.0)) continue;
-        k = rmean / R, inv_r = 1.0 / R;
+        // The ring through this pixel follows shape_share of the outline's departure from its
+        // mean radius: R_s = Rm + s (R - Rm); a centre moved by delta changes it by -s delta . u.
+        const double Rs = rmean + shape_share * (R - rmean);
+        k = rmean / Rs, inv_r = shape_share / Rs;
       }
       px.push_back({static_cast<float>(dx), static_cast<float>(dy), v,
                     d > 0 ? static_cast<float>(dx / d) : 0.f,

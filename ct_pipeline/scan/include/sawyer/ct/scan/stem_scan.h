@@ -81,6 +81,15 @@ struct StemScanOptions {
   // rings are not resolved, and what lines up there is aliasing, knots or the heartwood step
   // (real rings are 0.8-3 mm: at 1.5-2 mm pixels they never are).
   double min_ring_period_px = 2.0;
+  // How far a log's inner rings follow its outline's shape (PithRefineOptions::ring_shape_share)
+  // is measured before the refinement, not assumed: each share here is tried on up to
+  // ring_shape_probes slices spread along the log (the first pass's wide search), and the one
+  // whose rings line up best there (the median signal share; the first on a tie) is used for
+  // every slice. A model log's rings follow its outline exactly; real logs' inner rings are
+  // often rounder (rings laid down when the stem was young and round): on the real slices of
+  // bench/real_slices three quarters of the outline's departure fits four of the five logs.
+  std::vector<double> ring_shape_shares = {1.0, 0.75};
+  int ring_shape_probes = 8;
   // The whorl cue (pith_whorl.h) where the rings are not resolved.
   WhorlPithOptions whorl;
   // When set (an empty_like volume of the source's geometry), every slice with a contour is
@@ -166,6 +175,7 @@ struct StemScan {
   int pith_full_searches = 0;  // slices searched whole by the first track (lost or first)
   int pith_refinements = 0;    // ring-profile refinements, all passes
   int pith_refine_passes = 0;
+  double ring_shape_share = 1.0;  // the share the refinement used (StemScanOptions)
   std::size_t crop_bytes_in_memory = 0, crop_bytes_spilled = 0;  // the pith crops (CropStore)
   // Stem values replaced because they left their neighbours along z (a chain on the log, a bad
   // slice): outer radius and heartwood, in azimuth samples.

@@ -203,6 +203,10 @@ struct PithRefineOptions {
   // Refine every k-th slice with k = this / spacing (at least 1), and the last slice.
   double refine_spacing_mm = 10.0;
   int threads = 1;
+  // How far the rings follow the outline's shape (refine_pith_concentric's shape_share): 1, the
+  // rings homothetic to the outline about the pith; 0, circles. The stem pass measures it per
+  // log (StemScanOptions::ring_shape_shares).
+  double ring_shape_share = 1.0;
 };
 
 // Second pass over the crops of a first, smoothed track: each slice's pith is detected again on

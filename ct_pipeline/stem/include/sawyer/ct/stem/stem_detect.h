@@ -110,13 +110,16 @@ double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 
 // cracks) are left out. With `outline` (the outer radius under bark at equally spaced azimuths
 // around `start`) the rings are taken as homothetic to it about the pith, as the log model's
 // stem time has them (docs/architecture.md 5); without, as circles, which leans towards the centre
-// of an eccentric section by a fraction of a millimetre. Best on a slice averaged along z
-// (pith_track.h). confidence: signal share of the profile energy (0..1).
+// of an eccentric section by a fraction of a millimetre. `shape_share` (0..1) takes the rings as
+// following only that share of the outline's departure from a circle (real inner rings are often
+// rounder than the log: the stem pass measures the share per log). Best on a slice averaged
+// along z (pith_track.h). confidence: signal share of the profile energy (0..1).
 inline constexpr double kRingProfileMaxMm = 24.0;
 // `ring_min_mm` (at least 1.5 mm) leaves the innermost rings out: a band of the profile alone.
 PithResult refine_pith_concentric(const Slice& slice, const VolumeGeometry& geometry, Vec2 start,
                                   double search_mm, const std::vector<double>* outline,
-                                  double ring_max_mm = kRingProfileMaxMm, double ring_min_mm = 0.0);
+                                  double ring_max_mm = kRingProfileMaxMm, double ring_min_mm = 0.0,
+                                  double shape_share = 1.0);
 // The pixels refine_pith_concentric reads lie within this distance (mm) of `start`.
 inline double ring_profile_reach_mm(double search_mm, double ring_max_mm = kRingProfileMaxMm) {
   return ring_max_mm + search_mm + 1.0;
