@@ -407,8 +407,8 @@ void expect_colours(const ColourCheck& c, const std::string& what) {
   EXPECT_LT(c.knot_sum, 0.2 * c.knot_sum_old) << what;
 }
 
-TEST(OslColour, KnotsAndWoodHaveTheGlslLookOnGran1) {
-  const LogModel& log = test::sample_model("gran1_spruce");
+// The real spruce: render_field_test's board, 160 x 40 mm, 20 mm above the pith.
+BoardBox gran1_board(const LogModel& log) {
   const Vec2 c = log.stem.pith_at(1500);
   BoardBox b;
   b.cx = c.x;
@@ -417,69 +417,62 @@ TEST(OslColour, KnotsAndWoodHaveTheGlslLookOnGran1) {
   b.thickness = 40;
   b.z0 = 1000;
   b.z1 = 2000;
+  return b;
+}
+
+// A generated pine (dead knots, heartwood) and a thin board through its pith, whose faces cross
+// every knot near their start.
+LogModel generated_pine() {
+  GeneratorOptions o;
+  o.species = Species::kPine;
+  o.seed = 5;
+  o.length_mm = 3000;
+  Result<LogModel> log = generate_log(o);
+  EXPECT_TRUE(log.ok()) << log.error().message();
+  return log.ok() ? std::move(log.value()) : LogModel{};
+}
+BoardBox pine_board(const LogModel& log) {
+  const Vec2 c = log.stem.pith_at(1200);
+  BoardBox b;
+  b.cx = c.x;
+  b.cy = c.y;
+  b.width = 240;
+  b.thickness = 12;
+  b.z0 = 600;
+  b.z1 = 1800;
+  return b;
+}
+
+TEST(OslColour, KnotsAndWoodHaveTheGlslLookOnGran1) {
+  const LogModel& log = test::sample_model("gran1_spruce");
   ColourCheck check;
-  compare_colours(log, b, check);
+  compare_colours(log, gran1_board(log), check);
   if (HasFatalFailure()) return;
   expect_colours(check, "gran1 board 160 x 40");
 }
 
 TEST(OslColour, KnotsAndHeartwoodHaveTheGlslLookOnAGeneratedPine) {
-  GeneratorOptions o;
-  o.species = Species::kPine;
-  o.seed = 5;
-  o.length_mm = 3000;
-  Result<LogModel> log = generate_log(o);
-  ASSERT_TRUE(log.ok()) << log.error().message();
-  const Vec2 c = log.value().stem.pith_at(1200);
-  BoardBox b;
-  b.cx = c.x;
-  b.cy = c.y;
-  b.width = 240;
-  b.thickness = 12;
-  b.z0 = 600;
-  b.z1 = 1800;
+  const LogModel log = generated_pine();
+  ASSERT_FALSE(log.knots.empty());
   ColourCheck check;
-  compare_colours(log.value(), b, check);
+  compare_colours(log, pine_board(log), check);
   if (HasFatalFailure()) return;
   expect_colours(check, "pine board through the pith");
 }
 
-// The real spruce: render_field_test's board, 160 x 40 mm, 20 mm above the pith.
 TEST(OslField, AgreesWithTheGlslRendererOnGran1BoardFaces) {
   const LogModel& log = test::sample_model("gran1_spruce");
-  const Vec2 c = log.stem.pith_at(1500);
-  BoardBox b;
-  b.cx = c.x;
-  b.cy = c.y + 20;
-  b.width = 160;
-  b.thickness = 40;
-  b.z0 = 1000;
-  b.z1 = 2000;
   Agreement a;
-  compare_faces(log, b, a);
+  compare_faces(log, gran1_board(log), a);
   if (HasFatalFailure()) return;
   expect_agreement(a, "gran1 board 160 x 40");
 }
 
-// A generated pine (dead knots, heartwood): a thin board through the pith, whose faces cross
-// every knot near their start.
 TEST(OslField, AgreesWithTheGlslRendererOnAPineThroughThePith) {
-  GeneratorOptions o;
-  o.species = Species::kPine;
-  o.seed = 5;
-  o.length_mm = 3000;
-  Result<LogModel> log = generate_log(o);
-  ASSERT_TRUE(log.ok()) << log.error().message();
-  const Vec2 c = log.value().stem.pith_at(1200);
-  BoardBox b;
-  b.cx = c.x;
-  b.cy = c.y;
-  b.width = 240;
-  b.thickness = 12;
-  b.z0 = 600;
-  b.z1 = 1800;
+  const LogModel log = generated_pine();
+  ASSERT_FALSE(log.knots.empty());
   Agreement a;
-  compare_faces(log.value(), b, a);
+  compare_faces(log, pine_board(log), a);
   if (HasFatalFailure()) return;
   expect_agreement(a, "pine board through the pith");
 }
