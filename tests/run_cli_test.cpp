@@ -306,6 +306,36 @@ TEST(RunCli, ABadRegisterFileIsRefusedBeforeTheScan) {
 // sawn from it, yet the run writes the scan, run.json (saying why, with the two diameters) and a
 // report that says why, adds no register row, prints one line why and exits 4 (docs/run.md);
 // `sawyer report` on the folder writes the same report again.
+// A position inside the scanned volume but off the log's wood is known to miss only once the
+// log is scanned: the complete scan is kept, as for a pattern too large (exit 4), and the
+// report says what to do.
+TEST(RunCli, APositionOffTheLogWritesTheScanAndAReportAndExitsFour) {
+  const fs::path ct = small_ct();
+  ASSERT_FALSE(ct.empty());
+  test::TempDir dir;
+  std::string out;
+  const int rc = test::run_sawyer("run " + test::quoted(ct) + " -o " + test::quoted(dir / "out") +
+                                      " --pattern " + test::quoted(short_pattern(dir)) +
+                                      " --position 0,190 --db " +
+                                      test::quoted(dir / "logs.sqlite") + " --id g40 -q",
+                                  &out);
+  ASSERT_EQ(rc, 4) << out;
+  EXPECT_NE(out.find("outside the log"), std::string::npos) << out;
+  EXPECT_NE(out.find("NOT SAWN: "), std::string::npos) << out;
+  for (const char* f : {"scan/log.json", "run.json", "report/report.pdf", "report/report.html"})
+    EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "out" / "sawing.json"));
+  const Json run = read_json(dir / "out" / "run.json");
+  ASSERT_FALSE(run.is_discarded());
+  EXPECT_EQ(run["outcome"], "not sawn") << run.dump(1);
+  EXPECT_NE(run["not_sawn"]["reason"].get<std::string>().find("--position"), std::string::npos)
+      << run.dump(1);
+  const std::string html = report_html(dir / "out");
+  EXPECT_NE(html.find("give a position or offsets within its wood"), std::string::npos);
+  EXPECT_EQ(html.find("choose a pattern for smaller logs"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "logs.sqlite"));
+}
+
 TEST(RunCli, APatternThatDoesNotFitWritesTheScanAndAReportAndExitsFour) {
   const fs::path ct = small_ct();
   ASSERT_FALSE(ct.empty());

@@ -139,14 +139,19 @@ void release_written_detail(ScanResult& scan) {
 }
 
 // Why the log cannot be sawn, when that is why saw_log_model() failed: the pattern needs a
-// larger diameter than the log's usable one (check_pattern_fits, whose message is the reason).
-// Empty for any other error.
-std::optional<report::NotSawn> not_sawn_reason(const LogModel& log, const sawing::Pattern& pattern,
+// larger diameter than the log's usable one (check_pattern_fits, whose message is the reason),
+// or the position or offset grid asked for leaves the log's wood (check_offsets_reach: the
+// scanned volume was checked before the scan, the log is known only after it). Empty for any
+// other error.
+std::optional<report::NotSawn> not_sawn_reason(const LogModel& log, const sawing::SawSetup& su,
                                                const Error& error) {
   const sawing::SawLog saw_log(log, 2);  // the usable diameter only: no knot detail
+  const sawing::Pattern& pattern = su.pattern;
   const double need = pattern.required_diameter_mm(), usable = saw_log.usable_diameter_mm();
-  if (sawing::check_pattern_fits(pattern, usable, log.id)) return std::nullopt;
-  return report::NotSawn{error.message(), pattern.name, need, usable};
+  if (!sawing::check_pattern_fits(pattern, usable, log.id) ||
+      !sawing::check_offsets_reach(su, sawing::wood_reach_mm(saw_log), "the log's wood"))
+    return report::NotSawn{error.message(), pattern.name, need, usable};
+  return std::nullopt;
 }
 
 }  // namespace
@@ -266,8 +271,10 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   } else {
     // A complete scan is never thrown away (issue 41): a pattern too large for the log leaves
     // the scan, run.json and a report that says why. Any other failure is one.
-    run->not_sawn = not_sawn_reason(log, su.pattern, sawn.error());
+    run->not_sawn = not_sawn_reason(log, su, sawn.error());
     if (!run->not_sawn) return sawn.error().with_context(log.id);
+    // The reason may name an option (an offset off the log): in the front end's words.
+    if (c.word_note) run->not_sawn->reason = c.word_note(run->not_sawn->reason);
   }
   stages.push_back({"saw", since(t), peak_rss_mb()});
   mark_stage_end("saw");
@@ -279,9 +286,12 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
     // The decision first, for the operator at the saw: the files and the report follow.
     if (obs.decision) obs.decision(decision_line(su, out));
   } else {
+    const report::NotSawn& ns = *run->not_sawn;
     stage_done("saw", stages.back().seconds,
-               note_text("not sawn: the pattern needs %.1f mm, the log has %.1f mm",
-                         run->not_sawn->needed_diameter_mm, run->not_sawn->usable_diameter_mm));
+               ns.needed_diameter_mm > ns.usable_diameter_mm
+                   ? note_text("not sawn: the pattern needs %.1f mm, the log has %.1f mm",
+                               ns.needed_diameter_mm, ns.usable_diameter_mm)
+                   : "not sawn: the offsets asked for leave the log");
   }
   run->seconds_to_decision = since(t_all);
   // The report's GL context is made while the files are written on one core (loading the GL

@@ -76,7 +76,9 @@ std::vector<std::string> not_sawn_text(const RunFolder& r) {
   const NotSawn& ns = *r.run.not_sawn;
   std::vector<std::string> t;
   const std::string pattern = "pattern '" + or_none(ns.pattern) + "'";
-  if (ns.needed_diameter_mm >= 0 && ns.usable_diameter_mm >= 0)
+  const bool too_small = ns.needed_diameter_mm >= 0 && ns.usable_diameter_mm >= 0 &&
+                         ns.needed_diameter_mm > ns.usable_diameter_mm;
+  if (too_small)
     t.push_back("The log was scanned but not sawn: " + pattern + " needs a log at least " +
                 fmt("%.1f mm", ns.needed_diameter_mm) +
                 " across, and this log's usable "
@@ -87,12 +89,19 @@ std::vector<std::string> not_sawn_text(const RunFolder& r) {
                 fmt("%.1f mm", ns.needed_diameter_mm - ns.usable_diameter_mm) + " short.");
   else
     t.push_back("The log was scanned but not sawn: " + or_none(ns.reason) + ".");
-  t.push_back(
-      "The scan is complete and kept in scan/ (log.json, the maps and the QA images). "
-      "To saw this log, choose a pattern for smaller logs (a through-and-through "
-      "pattern, tt, edges every board to the log and fits any log): `sawyer saw "
-      "scan/log.json -o sawing.json --pattern P` saws the scanned model without "
-      "scanning again; `sawyer run --pattern P` scans and saws it again.");
+  if (too_small || ns.needed_diameter_mm < 0)
+    t.push_back(
+        "The scan is complete and kept in scan/ (log.json, the maps and the QA images). "
+        "To saw this log, choose a pattern for smaller logs (a through-and-through "
+        "pattern, tt, edges every board to the log and fits any log): `sawyer saw "
+        "scan/log.json -o sawing.json --pattern P` saws the scanned model without "
+        "scanning again; `sawyer run --pattern P` scans and saws it again.");
+  else
+    t.push_back(
+        "The scan is complete and kept in scan/ (log.json, the maps and the QA images). "
+        "To saw this log, give a position or offsets within its wood: `sawyer saw "
+        "scan/log.json -o sawing.json` with them saws the scanned model without scanning "
+        "again.");
   if (r.log.qa && !r.log.qa->trusted)
     t.push_back(
         "The scan's QA verdict failed: the log's outline or pith, and so its usable "

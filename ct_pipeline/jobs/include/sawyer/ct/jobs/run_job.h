@@ -16,7 +16,8 @@
 // last thing written, so a register that refuses it leaves no output behind either.
 //
 // A complete scan is never thrown away: when the pattern cannot be sawn from the log (it needs
-// a larger diameter than the log's usable one), the job still succeeds with `not_sawn` set and
+// a larger diameter than the log's usable one, or the position or offsets asked for leave the
+// log's wood, known only once it is scanned), the job still succeeds with `not_sawn` set and
 // writes the folder without sawing.json: scan/, run.json ("outcome": "not sawn" and why) and a
 // report that says why. The register has no column for such a log, so it gets no row (an earlier
 // row of the same scan stays as it was). The front end exits 4 (docs/run.md).
