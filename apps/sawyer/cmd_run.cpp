@@ -59,7 +59,7 @@ void print_summary_end(const ct::RunOutcome& run, bool no_report) {
 void print_not_sawn_summary(const ct::RunOutcome& run, bool no_report) {
   const report::NotSawn& ns = *run.not_sawn;
   print_log_line(run);
-  if (ns.needed_diameter_mm > ns.usable_diameter_mm)
+  if (ns.pattern_too_large())
     std::printf(
         "NOT SAWN: pattern '%s' needs a diameter of %.1f mm; the log's usable diameter is %.1f "
         "mm (inscribed in the top end, under bark)\n",

@@ -288,7 +288,7 @@ Result<std::unique_ptr<RunOutcome>> run_job(const RunJobOptions& c, const RunObs
   } else {
     const report::NotSawn& ns = *run->not_sawn;
     stage_done("saw", stages.back().seconds,
-               ns.needed_diameter_mm > ns.usable_diameter_mm
+               ns.pattern_too_large()
                    ? note_text("not sawn: the pattern needs %.1f mm, the log has %.1f mm",
                                ns.needed_diameter_mm, ns.usable_diameter_mm)
                    : "not sawn: the offsets asked for leave the log");

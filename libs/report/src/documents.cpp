@@ -76,8 +76,7 @@ std::vector<std::string> not_sawn_text(const RunFolder& r) {
   const NotSawn& ns = *r.run.not_sawn;
   std::vector<std::string> t;
   const std::string pattern = "pattern '" + or_none(ns.pattern) + "'";
-  const bool too_small = ns.needed_diameter_mm >= 0 && ns.usable_diameter_mm >= 0 &&
-                         ns.needed_diameter_mm > ns.usable_diameter_mm;
+  const bool too_small = ns.pattern_too_large();
   if (too_small)
     t.push_back("The log was scanned but not sawn: " + pattern + " needs a log at least " +
                 fmt("%.1f mm", ns.needed_diameter_mm) +

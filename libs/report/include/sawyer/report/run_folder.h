@@ -32,6 +32,12 @@ struct NotSawn {
   std::string pattern;  // the pattern's name
   double needed_diameter_mm = -1;  // Pattern::required_diameter_mm()
   double usable_diameter_mm = -1;  // SawLog::usable_diameter_mm()
+  // Not sawn because the pattern needs more than the log's usable diameter (both known); else
+  // for `reason` (an offset off the log's wood).
+  bool pattern_too_large() const {
+    return needed_diameter_mm >= 0 && usable_diameter_mm >= 0 &&
+           needed_diameter_mm > usable_diameter_mm;
+  }
 };
 
 // run.json. Empty strings and negative numbers mean "not given" (the report shows "—").
