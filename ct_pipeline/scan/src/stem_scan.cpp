@@ -763,7 +763,7 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
     const int every = slice_step(g, ro.refine_spacing_mm);
     std::vector<int> candidates;
     for (int i = 0; i < n; ++i)
-      if ((i % every == 0 || i == n - 1) && scan.slices[static_cast<size_t>(i)].measured)
+      if (refined_slice(i, n, every) && scan.slices[static_cast<size_t>(i)].measured)
         candidates.push_back(i);
     std::vector<bool> probe(static_cast<size_t>(n), false);
     const int np = std::min<int>(options.ring_shape_probes, static_cast<int>(candidates.size()));

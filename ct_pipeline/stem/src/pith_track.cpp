@@ -440,7 +440,7 @@ std::vector<PithResult> refine_pith_track(
   const int every = slice_step(geometry, refine.refine_spacing_mm);
   const int threads = std::clamp(refine.threads, 1, 64);
   auto refined = [&](int i) {
-    return (i % every == 0 || i == n - 1) && (!which || (*which)[static_cast<size_t>(i)]);
+    return refined_slice(i, n, every) && (!which || (*which)[static_cast<size_t>(i)]);
   };
   // The wood level of every crop an average takes in, around the track, once (each crop is in
   // the averages of several refined slices).

@@ -38,6 +38,9 @@ namespace sawyer::ct {
 // spacing_mm (at least 1), for the geometry's slice spacing.
 int slices_within(const VolumeGeometry& geometry, double half_window_mm, int max_slices);
 int slice_step(const VolumeGeometry& geometry, double spacing_mm);
+// The slices refine_pith_track refines (of n): every `every`-th (slice_step of
+// PithRefineOptions::refine_spacing_mm) and the last.
+inline bool refined_slice(int i, int n, int every) { return i % every == 0 || i == n - 1; }
 
 // The evidence the final pith follows at a height (issue 20): the annual rings lined up around it
 // (resolved rings); where they are not (coarse pixels, faint rings, rot or cracks over the
