@@ -668,21 +668,25 @@ TEST(ExportTools, BlenderImportsAndCyclesRendersTheFace) {
                        "edges_m": [1.2, 0.15, 0.05]}]})");
   const fs::path tools = test::source_dir() / "tools" / "blender";
   const std::string blender = "blender -b --factory-startup --python-exit-code 1 --python ";
-  std::string out;
-  int rc = test::run_command(blender + test::quoted(tools / "check_glb.py") + " -- " +
-                                 test::quoted(dir / "b.glb") + " " +
-                                 test::quoted(dir / "expect.json") + " 2>&1",
-                             &out);
-  EXPECT_EQ(rc, 0) << out;
-  EXPECT_NE(out.find("check_glb: OK, 1 boards"), std::string::npos) << out;
   const int w = static_cast<int>(std::lround(1200 * k)), h = static_cast<int>(std::lround(150 * k));
-  rc = test::run_command(blender + test::quoted(tools / "render_boards.py") + " -- " +
-                             test::quoted(dir / "b.glb") + " " + test::quoted(dir / "face.png") +
-                             " face \"board 1\" " + std::to_string(w) + " " + std::to_string(h) +
-                             " 16 2>&1",
-                         &out);
-  ASSERT_EQ(rc, 0) << out;
-  Result<render::Image> cycles = render::read_image(dir / "face.png");
+  // Blender imports `file` and checks its board against expect.json, then Cycles renders the
+  // board's top face into `png`, which is read back.
+  auto import_and_render = [&](const fs::path& file, const fs::path& png) {
+    std::string out;
+    int rc = test::run_command(blender + test::quoted(tools / "check_glb.py") + " -- " +
+                                   test::quoted(file) + " " + test::quoted(dir / "expect.json") +
+                                   " 2>&1",
+                               &out);
+    EXPECT_EQ(rc, 0) << file << "\n" << out;
+    EXPECT_NE(out.find("check_glb: OK, 1 boards"), std::string::npos) << file << "\n" << out;
+    rc = test::run_command(blender + test::quoted(tools / "render_boards.py") + " -- " +
+                               test::quoted(file) + " " + test::quoted(png) + " face \"board 1\" " +
+                               std::to_string(w) + " " + std::to_string(h) + " 16 2>&1",
+                           &out);
+    EXPECT_EQ(rc, 0) << file << "\n" << out;
+    return render::read_image(png);
+  };
+  Result<render::Image> cycles = import_and_render(dir / "b.glb", dir / "face.png");
   ASSERT_TRUE(cycles.ok()) << cycles.error().message();
   const render::Image sawyer = render_top_face(s.value().boards[0].box, w, h);
   const double d = mean_abs_diff(cycles.value(), sawyer);
@@ -698,19 +702,7 @@ TEST(ExportTools, BlenderImportsAndCyclesRendersTheFace) {
       run_export(test::sample_model("gran1_spruce"), one_board(dir / "b.gltf", k));
   ASSERT_TRUE(t.ok()) << t.error().message();
   EXPECT_EQ(t.value().files.size(), 4u) << "b.bin and three images";
-  rc = test::run_command(blender + test::quoted(tools / "check_glb.py") + " -- " +
-                             test::quoted(dir / "b.gltf") + " " +
-                             test::quoted(dir / "expect.json") + " 2>&1",
-                         &out);
-  EXPECT_EQ(rc, 0) << out;
-  EXPECT_NE(out.find("check_glb: OK, 1 boards"), std::string::npos) << out;
-  rc = test::run_command(blender + test::quoted(tools / "render_boards.py") + " -- " +
-                             test::quoted(dir / "b.gltf") + " " + test::quoted(dir / "face2.png") +
-                             " face \"board 1\" " + std::to_string(w) + " " + std::to_string(h) +
-                             " 16 2>&1",
-                         &out);
-  ASSERT_EQ(rc, 0) << out;
-  Result<render::Image> cycles_text = render::read_image(dir / "face2.png");
+  Result<render::Image> cycles_text = import_and_render(dir / "b.gltf", dir / "face2.png");
   ASSERT_TRUE(cycles_text.ok()) << cycles_text.error().message();
   const double same = mean_abs_diff(cycles_text.value(), cycles.value());
   std::cout << "Cycles, .gltf vs .glb: mean |diff| " << same << "\n";
