@@ -2,7 +2,8 @@
 // the first byte picks:
 //   0: a pattern (sawyer-pattern/1, read_pattern_file);
 //   1: grading rules (sawyer-grading/1, read_grading_file);
-//   2: prices (sawyer-prices/1, read_price_file).
+//   2: prices (sawyer-prices/1, read_price_file);
+//   3: a pattern set (sawyer-pattern-set/1, read_pattern_set_file) and its candidates.
 // Seeds: tests/fuzz/corpus/fuzz_sawing_files/ (a mode byte followed by a valid file).
 #include <cstddef>
 #include <cstdint>
@@ -13,6 +14,7 @@
 
 #include "sawyer/sawing/grading.h"
 #include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/pattern_set.h"
 #include "sawyer/sawing/value.h"
 
 namespace {
@@ -43,7 +45,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::ofstream f(file, std::ios::binary | std::ios::trunc);
     f.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
   }
-  switch (data[0] % 3) {
+  switch (data[0] % 4) {
     case 0: {
       auto p = sawyer::sawing::read_pattern_file(file);
       if (p.ok()) (void)p.value().validate();
@@ -52,9 +54,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 1:
       (void)sawyer::sawing::read_grading_file(file);
       break;
-    default:
+    case 2:
       (void)sawyer::sawing::read_price_file(file);
       break;
+    default: {
+      auto s = sawyer::sawing::read_pattern_set_file(file);
+      if (s.ok())
+        for (double d : {0.0, 150.0, 1e9}) (void)s.value().candidates(d);
+      break;
+    }
   }
   std::error_code ec;
   fs::remove(file, ec);

@@ -129,6 +129,14 @@ Pattern four_ex_pattern(CantOptions o) {
   return cant_pattern(o);
 }
 
+CantOptions four_ex_options() {
+  CantOptions c;
+  c.centre_boards = 4;
+  c.centre_thickness_mm = 38;
+  c.centre_width_mm = 100;
+  return c;
+}
+
 Pattern through_and_through_pattern(int boards, double thickness_mm, double max_width_mm,
                                     double kerf_mm) {
   Pattern p;

@@ -1,4 +1,6 @@
 // The user pattern file, "sawyer-pattern/1" (docs/sawing.md).
+#include "pattern_json.h"
+
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -15,7 +17,8 @@ namespace {
 using Json = nlohmann::ordered_json;
 constexpr const char* kPatternFormatTag = "sawyer-pattern/1";
 
-// Reads an optional number at obj[key] into *dst; `where` names the object for errors.
+}  // namespace
+
 Status number_at(const Json& obj, const std::string& where, const char* key, bool required,
                  double* dst) {
   const std::string at = where.empty() ? key : where + "." + key;
@@ -28,12 +31,7 @@ Status number_at(const Json& obj, const std::string& where, const char* key, boo
   return Status::Ok();
 }
 
-}  // namespace
-
-Result<Pattern> pattern_from_json(const std::string& text) {
-  Result<Json> parsed = parse_format_json(text, kPatternFormatTag);
-  if (!parsed) return parsed.error();
-  const Json& j = parsed.value();
+Result<Pattern> pattern_from_json_object(const Json& j) {
   Pattern p;
   if (auto it = j.find("name"); it != j.end()) {
     if (!it->is_string()) return Error("name", "expected a string");
@@ -94,9 +92,8 @@ Result<Pattern> pattern_from_json(const std::string& text) {
   return p;
 }
 
-std::string pattern_to_json(const Pattern& p) {
+Json pattern_json_object(const Pattern& p) {
   Json j;
-  j["format"] = kPatternFormatTag;
   j["name"] = p.name;
   j["kerf_mm"] = p.kerf_mm;
   j["wane"] = {{"max_face_fraction", p.wane.max_face_fraction},
@@ -114,6 +111,20 @@ std::string pattern_to_json(const Pattern& p) {
                       {"thickness_axis", b.thickness_axis == ThicknessAxis::kU ? "u" : "v"},
                       {"edged", b.edged}});
   j["boards"] = std::move(boards);
+  return j;
+}
+
+Result<Pattern> pattern_from_json(const std::string& text) {
+  Result<Json> parsed = parse_format_json(text, kPatternFormatTag);
+  if (!parsed) return parsed.error();
+  return pattern_from_json_object(parsed.value());
+}
+
+std::string pattern_to_json(const Pattern& p) {
+  Json j;
+  j["format"] = kPatternFormatTag;
+  const Json body = pattern_json_object(p);  // items() refers to it: not a temporary
+  for (const auto& [key, value] : body.items()) j[key] = value;
   return j.dump(2) + "\n";
 }
 

@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
+#include "pattern_json.h"
 #include "sawyer/core/file_util.h"
 #include "sawyer/model/log_json.h"
 #include "sawyer/sawing/placement.h"
@@ -116,7 +118,70 @@ Json frame_json(const LogModel& log) {
   return j;
 }
 
+Json candidate_json(const PatternCandidateResult& r) {
+  Json j = {{"name", r.name},
+            {"class", r.class_label},
+            {"own_class", r.own_class},
+            {"needed_diameter_mm", r.needed_diameter_mm},
+            {"fits", r.fits}};
+  if (r.fits) {
+    j["value"] = r.value;
+    if (r.has_expected) j["expected_value"] = r.expected_value;
+  }
+  return j;
+}
+
+// How the pattern was chosen from a set: the set, the log's class, the chosen and the next best
+// pattern with their values, every candidate, and the chosen pattern whole.
+Json pattern_choice_json(const PatternChoice& c, const Pattern& chosen) {
+  Json j;
+  j["set"] = c.set;
+  j["class"] = c.class_label;
+  j["usable_diameter_mm"] = c.usable_diameter_mm;
+  j["ranked_by"] = c.at_given_position ? "value at the given position"
+                                       : "expected value at each pattern's best position";
+  j["chosen"] = candidate_json(c.candidates[static_cast<size_t>(c.chosen)]);
+  j["next_best"] =
+      c.next_best < 0 ? Json() : candidate_json(c.candidates[static_cast<size_t>(c.next_best)]);
+  Json all = Json::array();
+  for (const PatternCandidateResult& r : c.candidates) all.push_back(candidate_json(r));
+  j["candidates"] = std::move(all);
+  Json p;
+  p["format"] = "sawyer-pattern/1";
+  const Json body = pattern_json_object(chosen);  // items() refers to it: not a temporary
+  for (const auto& [key, value] : body.items()) p[key] = value;
+  j["pattern"] = std::move(p);
+  return j;
+}
+
 }  // namespace
+
+std::string pattern_choice_line(const PatternChoice& c, const std::string& currency) {
+  auto num = [](const char* f, double v) {
+    char buf[48];
+    std::snprintf(buf, sizeof buf, f, v);
+    return std::string(buf);
+  };
+  const PatternCandidateResult& chosen = c.candidates[static_cast<size_t>(c.chosen)];
+  const std::string what = c.at_given_position ? "at the given position " : "expected ";
+  const std::string unit = currency.empty() ? "" : " " + currency;
+  std::string line = "pattern '" + chosen.name + "' chosen from set '" + c.set + "' (class " +
+                     c.class_label + ", usable diameter " + num("%.1f", c.usable_diameter_mm) +
+                     " mm), " + what + num("%.2f", chosen.rank_value()) + unit;
+  if (c.next_best >= 0) {
+    const PatternCandidateResult& next = c.candidates[static_cast<size_t>(c.next_best)];
+    const double best = chosen.rank_value();
+    line += "; next best '" + next.name + "', " + what + num("%.2f", next.rank_value()) + unit +
+            " (" + num("%+.1f", best > 0 ? 100 * (next.rank_value() / best - 1) : 0.0) + " %)";
+  } else {
+    line += "; no other candidate fits";
+  }
+  int fit = 0;
+  for (const PatternCandidateResult& r : c.candidates) fit += r.fits;
+  const size_t n = c.candidates.size();
+  return line + "; " + std::to_string(n) + (n == 1 ? " candidate, " : " candidates, ") +
+         std::to_string(fit) + (fit == 1 ? " fits" : " fit");
+}
 
 Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOutcome& out) {
   const OptimiseResult& r = out.opt;
@@ -124,13 +189,15 @@ Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOu
   Json j;
   j["format"] = kSawingFormatTag;
   j["log"] = log.id;
-  j["pattern"] = setup.pattern.name;
+  j["pattern"] = out.pattern.name;
   j["grading"] = setup.rules.name;
   j["prices"] = setup.prices.name;
   j["currency"] = setup.prices.currency;
-  j["inputs"] = {{"pattern", setup.names.pattern},
+  j["inputs"] = {{"pattern", setup.pattern_set ? "" : setup.names.pattern},
                  {"grading", setup.names.grading},
                  {"prices", setup.prices_path.string()}};
+  if (setup.pattern_set) j["inputs"]["pattern_set"] = setup.names.pattern_set;
+  if (out.choice) j["pattern_choice"] = pattern_choice_json(*out.choice, out.pattern);
   j["options"] = {{"rot_step_deg", o.rot_step_deg},       {"rot_range_deg", r.rot_range_deg},
                   {"offset_x_max_mm", o.offset_x_max_mm}, {"offset_x_step_mm", o.offset_x_step_mm},
                   {"offset_y_max_mm", o.offset_y_max_mm}, {"offset_y_step_mm", o.offset_y_step_mm},
@@ -359,6 +426,80 @@ Result<ValueSurface> surface(const Json& j) {
   return s;
 }
 
+Result<PatternCandidateResult> candidate(const Json& j, const std::string& where) {
+  if (!j.is_object()) return Error(where, "expected an object");
+  const std::string w = where + ".";
+  PatternCandidateResult r;
+  r.name = opt_string(j, "name");
+  if (r.name.empty()) return Error(w + "name", "missing");
+  r.class_label = opt_string(j, "class");
+  r.own_class = j.value("own_class", false);
+  Result<double> need = number(j, "needed_diameter_mm", w);
+  if (!need) return need.error();
+  r.needed_diameter_mm = need.value();
+  auto fits = j.find("fits");
+  if (fits == j.end() || !fits->is_boolean()) return Error(w + "fits", "expected true or false");
+  r.fits = fits->get<bool>();
+  if (r.fits) {
+    Result<double> v = number(j, "value", w);
+    if (!v) return v.error();
+    r.value = v.value();
+    if (j.contains("expected_value")) {
+      Result<double> e = number(j, "expected_value", w);
+      if (!e) return e.error();
+      r.expected_value = e.value();
+      r.has_expected = true;
+    }
+  }
+  return r;
+}
+
+// "pattern_choice" (pattern_choice_json): the choice and the chosen pattern.
+Status parse_pattern_choice(const Json& j, SawingRecord& s) {
+  const std::string w = "pattern_choice.";
+  if (!j.is_object()) return Error("pattern_choice", "expected an object");
+  PatternChoice c;
+  c.set = opt_string(j, "set");
+  c.class_label = opt_string(j, "class");
+  Result<double> usable = number(j, "usable_diameter_mm", w);
+  if (!usable) return usable.error();
+  c.usable_diameter_mm = usable.value();
+  c.at_given_position = opt_string(j, "ranked_by") == "value at the given position";
+  auto all = j.find("candidates");
+  if (all == j.end() || !all->is_array() || all->empty())
+    return Error(w + "candidates", "expected an array of candidates");
+  for (size_t i = 0; i < all->size(); ++i) {
+    Result<PatternCandidateResult> r =
+        candidate((*all)[i], w + "candidates[" + std::to_string(i) + "]");
+    if (!r) return r.error();
+    c.candidates.push_back(std::move(r).value());
+  }
+  // "chosen" and "next_best" name a fitting candidate (next_best may be null).
+  auto index_of = [&](const char* key, bool required, int* out) -> Status {
+    auto it = j.find(key);
+    if (it == j.end() || it->is_null()) {
+      if (required) return Error(w + key, "missing");
+      return Status::Ok();
+    }
+    const std::string name = it->is_object() ? opt_string(*it, "name") : std::string();
+    for (size_t i = 0; i < c.candidates.size(); ++i)
+      if (c.candidates[i].name == name && c.candidates[i].fits) *out = static_cast<int>(i);
+    if (*out < 0) return Error(w + key, "names no candidate that fits");
+    return Status::Ok();
+  };
+  if (Status st = index_of("chosen", true, &c.chosen); !st) return st;
+  if (Status st = index_of("next_best", false, &c.next_best); !st) return st;
+  auto p = j.find("pattern");
+  if (p == j.end() || !p->is_object()) return Error(w + "pattern", "missing");
+  Result<Pattern> pattern = pattern_from_json_object(*p);
+  if (!pattern) return pattern.error().with_context(w + "pattern");
+  if (pattern.value().name != c.candidates[static_cast<size_t>(c.chosen)].name)
+    return Error(w + "pattern", "is '" + pattern.value().name + "', not the chosen pattern");
+  s.pattern_choice = std::move(c);
+  s.chosen_pattern = std::move(pattern).value();
+  return Status::Ok();
+}
+
 Result<SawingRecord> parse_sawing(const Json& j) {
   if (opt_string(j, "format") != kSawingFormatTag)
     return Error("format", std::string("expected \"") + kSawingFormatTag + "\"");
@@ -368,6 +509,8 @@ Result<SawingRecord> parse_sawing(const Json& j) {
   s.grading = opt_string(j, "grading");
   s.prices = opt_string(j, "prices");
   s.currency = opt_string(j, "currency");
+  if (auto pc = j.find("pattern_choice"); pc != j.end())
+    if (Status st = parse_pattern_choice(*pc, s); !st) return st.error();
   // A position the viewer saved holds horns-down and the given position only.
   const bool whole = j.contains("best") || !j.contains("given_position");
   Result<PositionValue> hd = position(j, "horns_down");
@@ -435,6 +578,17 @@ Result<SawingRecord> read_sawing_file(const std::filesystem::path& path) {
   Result<SawingRecord> r = sawing_record_from_json(text.value());
   if (!r) return r.error().with_context(path.string());
   return r;
+}
+
+std::string run_pattern_choice_line(const std::filesystem::path& log_json) {
+  const std::filesystem::path scan = log_json.parent_path();
+  if (scan.filename() != "scan") return "";
+  const std::filesystem::path file = scan.parent_path() / "sawing.json";
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) return "";
+  Result<SawingRecord> r = read_sawing_file(file);
+  if (!r || !r.value().pattern_choice) return "";
+  return pattern_choice_line(*r.value().pattern_choice, r.value().currency);
 }
 
 }  // namespace sawyer::sawing

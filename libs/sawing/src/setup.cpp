@@ -28,14 +28,17 @@ std::filesystem::path bundled_data_dir() {
 
 Result<Pattern> pattern_by_name(const std::string& s) {
   if (s == "2ex") return two_ex_pattern({});
-  if (s == "4ex") {
-    CantOptions c;
-    c.centre_thickness_mm = 38;
-    c.centre_width_mm = 100;
-    return four_ex_pattern(c);
+  if (s == "4ex") return four_ex_pattern(four_ex_options());
+  if (s == "tt") {
+    const ThroughAndThroughOptions t;
+    return through_and_through_pattern(t.boards, t.thickness_mm, t.max_width_mm, t.kerf_mm);
   }
-  if (s == "tt") return through_and_through_pattern(7, 25.0);
   return read_pattern_file(s);
+}
+
+Result<PatternSet> pattern_set_by_name(const std::string& s) {
+  if (s == "nordic") return read_pattern_set_file(bundled_data_dir() / "patterns/nordic.json");
+  return read_pattern_set_file(s);
 }
 
 Result<GradingRules> grading_by_name(const std::string& s) {

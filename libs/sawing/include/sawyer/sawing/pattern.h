@@ -92,6 +92,18 @@ Pattern four_ex_pattern(CantOptions o);  // centre_boards = 4
 Pattern through_and_through_pattern(int boards, double thickness_mm, double max_width_mm = 225.0,
                                     double kerf_mm = 3.0);
 
+// The bundled patterns' parameters (pattern_by_name, setup.h), which a pattern set's presets
+// start from (pattern_set.h): "2ex" is two_ex_pattern(CantOptions{}), "4ex"
+// four_ex_pattern(four_ex_options()) (38 × 100 centre boards), "tt" the through-and-through
+// pattern of ThroughAndThroughOptions{} (7 boards of 25 mm).
+CantOptions four_ex_options();
+struct ThroughAndThroughOptions {
+  int boards = 7;
+  double thickness_mm = 25.0;
+  double max_width_mm = 225.0;
+  double kerf_mm = 3.0;
+};
+
 // Refuses a pattern that does not fit the log: an Error naming the log, the pattern's required
 // diameter and the log's usable diameter, when required_diameter_mm() > usable_diameter_mm.
 Status check_pattern_fits(const Pattern& p, double usable_diameter_mm, const std::string& log_id);

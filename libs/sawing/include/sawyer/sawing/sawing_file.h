@@ -12,6 +12,7 @@
 
 #include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -104,9 +105,25 @@ struct ValueSurface {
   bool empty() const { return value.empty(); }
 };
 
+// One line for summaries, the report and the viewer: "pattern '2ex 63x150 + 2×25x100 sides' chosen
+// from set 'nordic' (class 195-225 mm, usable diameter 202.0 mm), expected 123.45 EUR; next best
+// '4ex 38x100 + 2×22x100 sides', expected 110.20 EUR (-10.8 %); 5 candidates, 4 fit". Values at
+// the given position ("at the given position 120.00 EUR") when the choice was made there.
+std::string pattern_choice_line(const PatternChoice& c, const std::string& currency);
+
+// For a log.json in a run folder (<run>/scan/log.json): the run's pattern choice as
+// pattern_choice_line writes it, from <run>/sawing.json; "" when there is no such file, it
+// cannot be read, or its pattern was not chosen from a set. What the viewer shows of the run.
+std::string run_pattern_choice_line(const std::filesystem::path& log_json);
+
 // sawing.json.
 struct SawingRecord {
   std::string log_id, pattern, grading, prices, currency;
+  // How the pattern was chosen from a set ("pattern_choice"; absent when one pattern was given),
+  // and the chosen pattern itself ("pattern_choice.pattern", as a sawyer-pattern/1 file holds
+  // it), so that readers can saw its boards again without the set.
+  std::optional<PatternChoice> pattern_choice;
+  std::optional<Pattern> chosen_pattern;
   PositionValue best, horns_down, horns_up;
   double gain_over_horns_down = 0, gain_over_horns_up = 0;  // of the best's expected value
   bool chosen_given = false;                                // "chosen": "given"
