@@ -409,3 +409,146 @@ TEST(RunCli, APatternThatDoesNotFitWritesTheScanAndAReportAndExitsFour) {
   EXPECT_TRUE(fs::exists(dir / "out" / "report" / "report.pdf"));
   EXPECT_EQ(read_json(dir / "out" / "report" / "report.json")["outcome"], "not sawn");
 }
+
+namespace {
+
+// A pattern set for the short test log: one class for any log, boards kept from 200 mm.
+fs::path short_set(const test::TempDir& dir) {
+  const fs::path p = dir / "short_set.json";
+  test::write_file(p, R"({"format": "sawyer-pattern-set/1", "name": "short set",
+    "classes": [{"min_diameter_mm": 100, "max_diameter_mm": 500, "patterns": [
+      {"preset": "2ex", "name": "2ex 50x100 short", "centre_width_mm": 100,
+       "wane": {"min_length_mm": 200, "length_step_mm": 100}},
+      {"preset": "2ex", "name": "2ex 50x150 short",
+       "wane": {"min_length_mm": 200, "length_step_mm": 100}},
+      {"preset": "4ex", "name": "4ex 38x100 short",
+       "wane": {"min_length_mm": 200, "length_step_mm": 100}}]}]})");
+  return p;
+}
+
+}  // namespace
+
+// --pattern-set: the run chooses the pattern as well as the position. The chosen pattern and the
+// next best, with their values, are in sawing.json and run.json, the summary, the register's row,
+// the decision line and the report (HTML and PDF).
+TEST(RunCli, APatternSetChoosesThePatternAndEveryFileSaysWhich) {
+  const fs::path ct = small_ct();
+  ASSERT_FALSE(ct.empty());
+  test::TempDir dir;
+  std::string out;
+  const int rc = test::run_sawyer("run " + test::quoted(ct) + " -o " + test::quoted(dir / "out") +
+                                      " --pattern-set " + test::quoted(short_set(dir)) + " --db " +
+                                      test::quoted(dir / "logs.sqlite") + " --id g40 -q",
+                                  &out);
+  ASSERT_TRUE(rc == 0 || rc == 3) << out;
+  const Json saw = read_json(dir / "out" / "sawing.json");
+  ASSERT_FALSE(saw.is_discarded());
+  ASSERT_TRUE(saw.contains("pattern_choice")) << out;
+  const Json& pc = saw["pattern_choice"];
+  EXPECT_EQ(pc["set"], "short set");
+  EXPECT_EQ(pc["candidates"].size(), 3u);
+  const std::string chosen = pc["chosen"]["name"];
+  const std::string next = pc["next_best"]["name"];
+  EXPECT_EQ(saw["pattern"], chosen);
+  EXPECT_NE(chosen, next);
+  EXPECT_GE(pc["chosen"]["expected_value"].get<double>(),
+            pc["next_best"]["expected_value"].get<double>());
+  EXPECT_EQ(pc["pattern"]["name"], chosen);
+  EXPECT_EQ(saw["inputs"]["pattern_set"], short_set(dir).string());
+  // The chosen pattern's value is that of the boards the run lists.
+  double boards_value = 0;
+  for (const Json& b : saw["boards"]) boards_value += b["value"].get<double>();
+  EXPECT_NEAR(pc["chosen"]["value"].get<double>(), boards_value, 1e-6);
+  EXPECT_GT(boards_value, 0.0);
+
+  const Json run = read_json(dir / "out" / "run.json");
+  EXPECT_EQ(run["options"]["pattern_set"], short_set(dir).string());
+  EXPECT_EQ(run["options"]["pattern"], "");
+  EXPECT_EQ(run["pattern_choice"]["chosen"]["name"], chosen);
+  EXPECT_EQ(run["pattern_choice"]["next_best"]["name"], next);
+  EXPECT_EQ(run["pattern_choice"]["next_best"]["value"], pc["next_best"]["value"]);
+
+  // Summary and decision line.
+  EXPECT_NE(out.find("pattern '" + chosen + "' chosen from set 'short set'"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("next best '" + next + "'"), std::string::npos) << out;
+  EXPECT_NE(out.find("pattern '" + chosen + "', position: rot"), std::string::npos) << out;
+  auto reg = reg::LogRegister::open_read_only(dir / "logs.sqlite");
+  ASSERT_TRUE(reg.ok()) << reg.error().message();
+  auto rows = reg.value().list({});
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows.value().size(), 1u);
+  EXPECT_EQ(rows.value()[0].pattern, chosen);
+
+  // The report: the choice in its sawing table, the boards sawn again with the chosen pattern.
+  const std::string html = report_html(dir / "out");
+  EXPECT_NE(html.find("chosen from set 'short set'"), std::string::npos);
+  const Json rep = read_json(dir / "out" / "report" / "report.json");
+  EXPECT_EQ(rep["sawing"]["pattern_choice"]["chosen"]["name"], chosen);
+  EXPECT_EQ(rep["sawing"]["pattern_choice"]["next_best"]["name"], next);
+  std::string pdf;
+  if (report_pdf_text(dir / "out", &pdf, 1)) {
+    EXPECT_NE(pdf.find("Pattern choice"), std::string::npos) << pdf;
+    EXPECT_NE(pdf.find("next best"), std::string::npos) << pdf;
+  }
+}
+
+// A log that no pattern of the set fits is not sawn, as one pattern too large: the scan, run.json
+// and a report that say why (naming the set and its smallest candidate), exit 4.
+TEST(RunCli, APatternSetThatFitsNothingWritesTheScanAndAReportAndExitsFour) {
+  const fs::path ct = small_ct();
+  ASSERT_FALSE(ct.empty());
+  test::TempDir dir;
+  const fs::path set = dir / "huge_set.json";
+  test::write_file(set, R"({"format": "sawyer-pattern-set/1", "name": "huge set",
+    "classes": [{"min_diameter_mm": 50, "max_diameter_mm": 1000, "patterns": [
+      {"name": "huge", "boards": [
+        {"name": "1", "u_mm": -101.5, "v_mm": 0, "thickness_mm": 200, "width_mm": 400},
+        {"name": "2", "u_mm": 101.5, "v_mm": 0, "thickness_mm": 200, "width_mm": 400}]},
+      {"preset": "4ex", "centre_thickness_mm": 150, "centre_width_mm": 300}]}]})");
+  std::string out;
+  const int rc = test::run_sawyer("run " + test::quoted(ct) + " -o " + test::quoted(dir / "out") +
+                                      " --pattern-set " + test::quoted(set) + " --db " +
+                                      test::quoted(dir / "logs.sqlite") + " --id g40 -q",
+                                  &out);
+  ASSERT_EQ(rc, 4) << out;
+  EXPECT_NE(out.find("sawyer: log 'g40': no pattern of pattern set 'huge set' fits: the smallest "
+                     "of its candidates for class 50-1000 mm, 'huge', needs a diameter of"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("NOT SAWN: log 'g40': no pattern of pattern set 'huge set' fits"),
+            std::string::npos)
+      << out;
+  for (const char* f : {"scan/log.json", "run.json", "report/report.pdf", "report/report.html",
+                        "report/images/top_end.png"})
+    EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "out" / "sawing.json"));
+  EXPECT_FALSE(fs::exists(dir / "logs.sqlite"));
+  const Json run = read_json(dir / "out" / "run.json");
+  EXPECT_EQ(run["outcome"], "not sawn");
+  EXPECT_EQ(run["not_sawn"]["pattern_set"], "huge set");
+  EXPECT_EQ(run["not_sawn"]["pattern"], "huge");
+  EXPECT_NE(run["not_sawn"]["reason"].get<std::string>().find("pattern set 'huge set'"),
+            std::string::npos);
+  EXPECT_GT(run["not_sawn"]["needed_diameter_mm"].get<double>(),
+            run["not_sawn"]["usable_diameter_mm"].get<double>());
+  const std::string html = report_html(dir / "out");
+  EXPECT_NE(html.find("NOT SAWN"), std::string::npos);
+  EXPECT_NE(html.find("no pattern of pattern set 'huge set' fits"), std::string::npos);
+  EXPECT_NE(html.find("give a pattern set with patterns for smaller logs"), std::string::npos);
+  std::string pdf;
+  if (report_pdf_text(dir / "out", &pdf)) {
+    EXPECT_NE(pdf.find("huge set"), std::string::npos) << pdf;
+  }
+}
+
+TEST(RunCli, PatternAndPatternSetExcludeEachOther) {
+  test::TempDir dir;
+  std::string out;
+  EXPECT_EQ(test::run_sawyer("run " + test::quoted(dir.path()) + " -o " +
+                                 test::quoted(dir / "out") + " --pattern 4ex --pattern-set nordic",
+                             &out),
+            1);
+  EXPECT_NE(out.find("--pattern: cannot be given with --pattern-set"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}

@@ -121,3 +121,54 @@ TEST(SawCli, SaysWhetherHornsDownIsFromTheBowOrAConvention) {
       << out;
   EXPECT_NE(out.find("horns-down from an arc bow of 12.7 mm"), std::string::npos) << out;
 }
+
+// --pattern-set: the bundled Nordic set on the 4 m spruce (usable diameter 202 mm, class
+// 195-225 mm): every candidate of its class and the neighbours listed, those too large for it
+// not sawn, the chosen and the next best in the summary and in sawing.json.
+TEST(SawCli, APatternSetChoosesThePatternForTheLog) {
+  test::TempDir dir;
+  std::string out;
+  ASSERT_EQ(test::run_sawyer("saw " + gran1() + " -q --pattern-set nordic --rot-step 10 -o " +
+                                 test::quoted(dir / "sawing.json"),
+                             &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("chosen from set 'nordic' (class 195-225 mm"), std::string::npos) << out;
+  EXPECT_NE(out.find("next best '"), std::string::npos) << out;
+  EXPECT_NE(out.find("does not fit"), std::string::npos) << out;
+  std::ifstream f(dir / "sawing.json");
+  const nlohmann::json j = nlohmann::json::parse(f, nullptr, false);
+  ASSERT_FALSE(j.is_discarded());
+  const nlohmann::json& pc = j["pattern_choice"];
+  EXPECT_EQ(pc["set"], "nordic");
+  EXPECT_EQ(pc["class"], "195-225 mm");
+  EXPECT_EQ(j["pattern"], pc["chosen"]["name"]);
+  int fit = 0;
+  for (const nlohmann::json& c : pc["candidates"]) {
+    fit += c["fits"].get<bool>();
+    EXPECT_EQ(c["fits"].get<bool>(),
+              c["needed_diameter_mm"].get<double>() <= pc["usable_diameter_mm"].get<double>());
+    if (c["fits"].get<bool>()) {
+      EXPECT_LE(c["expected_value"].get<double>(), pc["chosen"]["expected_value"].get<double>());
+    }
+  }
+  EXPECT_GE(fit, 2);
+  EXPECT_LT(fit, static_cast<int>(pc["candidates"].size()));
+}
+
+// `sawyer saw` has no scan to keep: a log no pattern of the set fits is an error naming the set.
+TEST(SawCli, APatternSetThatFitsNothingIsRefusedNamingTheSet) {
+  test::TempDir dir;
+  test::write_file(dir / "big.json", R"({"format": "sawyer-pattern-set/1", "name": "big",
+    "classes": [{"min_diameter_mm": 50, "max_diameter_mm": 900, "patterns": [
+      {"preset": "4ex", "centre_thickness_mm": 75, "centre_width_mm": 225}]}]})");
+  std::string out;
+  EXPECT_EQ(
+      test::run_sawyer("saw " + gran1() + " -q --pattern-set " + test::quoted(dir / "big.json") +
+                           " -o " + test::quoted(dir / "sawing.json"),
+                       &out),
+      1);
+  EXPECT_EQ(lines(out), 1u) << out;
+  EXPECT_NE(out.find("no pattern of pattern set 'big' fits"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "sawing.json"));
+}

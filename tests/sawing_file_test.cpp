@@ -21,7 +21,7 @@ SawSetup setup_for(const std::string& position) {
   o.rot_step_deg = 10;  // a coarse grid: the file's contents matter here, not the optimum
   o.offset_x_max_mm = 4;
   o.offset_x_step_mm = 2;
-  Result<SawSetup> s = load_saw_setup({"2ex", "nordic", "", position}, o);
+  Result<SawSetup> s = load_saw_setup({"2ex", "nordic", "", position, ""}, o);
   EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().message());
   return s.value();
 }

@@ -59,7 +59,9 @@ void print_summary_end(const ct::RunOutcome& run, bool no_report) {
 void print_not_sawn_summary(const ct::RunOutcome& run, bool no_report) {
   const report::NotSawn& ns = *run.not_sawn;
   print_log_line(run);
-  if (ns.pattern_too_large())
+  if (ns.pattern_too_large() && !ns.pattern_set.empty())
+    std::printf("NOT SAWN: %s\n", ns.reason.c_str());
+  else if (ns.pattern_too_large())
     std::printf(
         "NOT SAWN: pattern '%s' needs a diameter of %.1f mm; the log's usable diameter is %.1f "
         "mm (inscribed in the top end, under bark)\n",
@@ -77,8 +79,9 @@ void print_summary(const ct::RunOutcome& run, bool no_report) {
   const std::string& cur = su.prices.currency;
   const sawing::LogPosition& p = run.position();
   print_log_line(run);
+  if (out.choice) std::printf("%s\n", sawing::pattern_choice_line(*out.choice, cur).c_str());
   std::printf("pattern %s, grading %s: %s position rot %.1f° x %+.1f y %+.1f mm, value %.2f %s",
-              su.pattern.name.c_str(), su.rules.name.c_str(), su.position ? "given" : "best",
+              out.pattern.name.c_str(), su.rules.name.c_str(), su.position ? "given" : "best",
               p.rotation_deg, p.offset_x_mm, p.offset_y_mm, out.chosen_value().value, cur.c_str());
   const double hd = out.opt.horns_down.value;
   if (su.position)
@@ -159,8 +162,13 @@ void add_run_command(CLI::App& app, std::function<int()>& run_out) {
       ->required();
   cmd->add_option("--id", c->job.scan.id, "log id (default: the scan's folder name)");
   cmd->add_option("--species", c->job.scan.species, "species")->capture_default_str();
-  cmd->add_option("--pattern", c->job.names.pattern, "2ex | 4ex | tt | a sawyer-pattern/1 file")
-      ->capture_default_str();
+  CLI::Option* pattern =
+      cmd->add_option("--pattern", c->job.names.pattern, "2ex | 4ex | tt | a sawyer-pattern/1 file")
+          ->capture_default_str();
+  cmd->add_option("--pattern-set", c->job.names.pattern_set,
+                  "nordic | a sawyer-pattern-set/1 file: choose the pattern per log as well as "
+                  "the position (the log's diameter class and its neighbours; docs/sawing.md)")
+      ->excludes(pattern);
   cmd->add_option("--grading", c->job.names.grading, "nordic | gost | a sawyer-grading/1 file")
       ->capture_default_str();
   cmd->add_option("--prices", c->job.names.prices,

@@ -49,8 +49,21 @@ void print_sawing_summary(const LogModel& log, const SawSetup& su, const SawingO
   const std::string& cur = su.prices.currency;
   std::fprintf(f, "log %s: %zu knots, usable diameter %.0f mm; pattern %s%s; grading %s\n",
                log.id.c_str(), log.knots.size(), out.saw_log.usable_diameter_mm(),
-               su.pattern.name.c_str(), r.symmetric ? " (point-symmetric: 180°)" : "",
+               out.pattern.name.c_str(), r.symmetric ? " (point-symmetric: 180°)" : "",
                su.rules.name.c_str());
+  if (out.choice) {
+    std::fprintf(f, "%s\n", pattern_choice_line(*out.choice, cur).c_str());
+    // Every candidate: what it needs, and what it gave where it fits.
+    for (const PatternCandidateResult& c : out.choice->candidates) {
+      std::fprintf(f, "  %-44s class %-12s needs %6.1f mm", ("'" + c.name + "'").c_str(),
+                   c.class_label.c_str(), c.needed_diameter_mm);
+      if (c.fits)
+        std::fprintf(f, ": %9.2f %s%s\n", c.rank_value(), cur.c_str(),
+                     c.has_expected ? " expected" : " at the given position");
+      else
+        std::fprintf(f, ": does not fit\n");
+    }
+  }
   std::fprintf(f,
                "%d positions (%zu rotations × %zu × %zu offsets) on %d threads in %.2f s (%.0f/s); "
                "σ %.1f° / %.1f mm\n",
@@ -141,8 +154,13 @@ void add_saw_command(CLI::App& app, std::function<int()>& run_out) {
       "position under the positioning error, its gain over horns-down/up");
   cmd->add_option("input", c->input, "log.json (or a maps / stem-bank folder)")->required();
   cmd->add_option("-o,--output", c->output, "sawing.json to write")->required();
-  cmd->add_option("--pattern", c->names.pattern, "2ex | 4ex | tt | a sawyer-pattern/1 file")
-      ->capture_default_str();
+  CLI::Option* pattern =
+      cmd->add_option("--pattern", c->names.pattern, "2ex | 4ex | tt | a sawyer-pattern/1 file")
+          ->capture_default_str();
+  cmd->add_option("--pattern-set", c->names.pattern_set,
+                  "nordic | a sawyer-pattern-set/1 file: choose the pattern as well as the "
+                  "position (the log's diameter class and its neighbours; docs/sawing.md)")
+      ->excludes(pattern);
   cmd->add_option("--grading", c->names.grading, "nordic | gost | a sawyer-grading/1 file")
       ->capture_default_str();
   cmd->add_option("--prices", c->names.prices,

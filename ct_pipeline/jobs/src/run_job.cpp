@@ -74,13 +74,17 @@ report::RunRecord run_record(const RunJobOptions& c, const RunOutcome& run,
   r.qa = scan.log().qa;
   in.date = date;
   in.sawyer_version = SAWYER_VERSION;
-  in.pattern = c.names.pattern;
+  // With a pattern set the pattern is chosen per log: the set is the option given.
+  in.pattern = c.names.pattern_set.empty() ? c.names.pattern : "";
+  in.pattern_set = c.names.pattern_set;
   in.grading = c.names.grading;
   in.prices = c.names.prices;
   in.position = c.names.position;
   in.stages = run.stages;
   in.seconds_to_decision = run.seconds_to_decision;
   in.seconds_total = run.seconds;
+  if (run.sawn && run.sawn->choice) r.pattern_choice = run.sawn->choice;
+  r.currency = run.setup.prices.currency;
   return r;
 }
 
@@ -102,7 +106,7 @@ reg::LogRecord register_record(const RunOutcome& run, const std::string& source,
   r.volume_m3 = s.volume_m3;
   r.taper_mm_per_m = s.taper_mm_per_m;
   r.knot_count = s.knot_count;
-  r.pattern = su.pattern.name;
+  r.pattern = out.pattern.name;  // with a pattern set, the one chosen
   r.grading = su.rules.name;
   const sawing::LogPosition& p = run.position();
   r.rotation_deg = p.rotation_deg;
@@ -138,19 +142,21 @@ void release_written_detail(ScanResult& scan) {
   std::vector<KnotFitReport>().swap(scan.knots.fits);
 }
 
-// Why the log cannot be sawn, when that is why saw_log_model() failed: the pattern needs a
-// larger diameter than the log's usable one (check_pattern_fits, whose message is the reason),
-// or the position or offset grid asked for leaves the log's wood (check_offsets_reach: the
-// scanned volume was checked before the scan, the log is known only after it). Empty for any
-// other error.
+// Why the log cannot be sawn, when that is why saw_log_model() failed: the pattern (with a
+// pattern set, every candidate for the log's class) needs a larger diameter than the log's usable
+// one (check_setup_fits, whose message is the reason), or the position or offset grid asked for
+// leaves the log's wood (check_offsets_reach: the scanned volume was checked before the scan, the
+// log is known only after it). Empty for any other error.
 std::optional<report::NotSawn> not_sawn_reason(const LogModel& log, const sawing::SawSetup& su,
                                                const Error& error) {
   const sawing::SawLog saw_log(log, 2);  // the usable diameter only: no knot detail
-  const sawing::Pattern& pattern = su.pattern;
-  const double need = pattern.required_diameter_mm(), usable = saw_log.usable_diameter_mm();
-  if (!sawing::check_pattern_fits(pattern, usable, log.id) ||
+  const double usable = saw_log.usable_diameter_mm();
+  const sawing::FitNeed need = sawing::fit_need(su, usable);
+  if (!sawing::check_setup_fits(su, usable, log.id) ||
       !sawing::check_offsets_reach(su, sawing::wood_reach_mm(saw_log), "the log's wood"))
-    return report::NotSawn{error.message(), pattern.name, need, usable};
+    return report::NotSawn{error.message(), need.pattern,
+                           su.pattern_set ? su.pattern_set->name : "", need.needed_diameter_mm,
+                           usable};
   return std::nullopt;
 }
 
@@ -162,7 +168,9 @@ const sawing::LogPosition& RunOutcome::position() const {
 
 std::string decision_line(const sawing::SawSetup& su, const sawing::SawingOutcome& out) {
   const sawing::LogPosition& p = su.position ? *su.position : out.opt.best.pos;
-  return note_text("position: rot %.1f° x %+.1f y %+.1f mm, %.2f ", p.rotation_deg, p.offset_x_mm,
+  // With a pattern set the saw needs to know which pattern too.
+  return (out.choice ? "pattern '" + out.pattern.name + "', " : std::string()) +
+         note_text("position: rot %.1f° x %+.1f y %+.1f mm, %.2f ", p.rotation_deg, p.offset_x_mm,
                    p.offset_y_mm, out.chosen_value().value) +
          su.prices.currency + "; saw set-up: " + sawing::saw_setup_line(out.saw_log, p);
 }

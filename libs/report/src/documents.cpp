@@ -70,14 +70,38 @@ Rows not_sawn_log_rows(const Content& c) {
   return rows;
 }
 
+// The caption of the needed diameter's tile: a pattern's, or with a pattern set its smallest
+// candidate's or its smallest class's start.
+std::string needed_label(const NotSawn& ns) {
+  if (ns.pattern_set.empty()) return "diameter the pattern needs";
+  return ns.pattern.empty() ? "where the set's smallest class starts"
+                            : "diameter the set's smallest candidate needs";
+}
+
 // Why a log was not sawn, in plain words: the first line the diameters (or run.json's reason
 // when they are not known), then what the engineer can do about it.
 std::vector<std::string> not_sawn_text(const RunFolder& r) {
   const NotSawn& ns = *r.run.not_sawn;
   std::vector<std::string> t;
-  const std::string pattern = "pattern '" + or_none(ns.pattern) + "'";
+  const bool set = !ns.pattern_set.empty();
+  // With a pattern set: no candidate for its class fits (the smallest named), or the log is
+  // below the set's smallest class.
+  const std::string pattern =
+      !set ? "pattern '" + or_none(ns.pattern) + "'"
+      : ns.pattern.empty()
+          ? "no pattern of pattern set '" + ns.pattern_set +
+                "' fits: its smallest class starts at " + fmt("%.1f mm", ns.needed_diameter_mm) +
+                ";"
+          : "no pattern of pattern set '" + ns.pattern_set +
+                "' fits: the smallest of its candidates for the log's class, pattern '" +
+                ns.pattern + "',";
   const bool too_small = ns.pattern_too_large();
-  if (too_small)
+  if (too_small && set && ns.pattern.empty())
+    t.push_back("The log was scanned but not sawn: " + pattern + " this log's usable diameter is " +
+                fmt("%.1f mm", ns.usable_diameter_mm) +
+                " (the largest circle about the pith line inside its top end, under bark): " +
+                fmt("%.1f mm", ns.needed_diameter_mm - ns.usable_diameter_mm) + " short.");
+  else if (too_small)
     t.push_back("The log was scanned but not sawn: " + pattern + " needs a log at least " +
                 fmt("%.1f mm", ns.needed_diameter_mm) +
                 " across, and this log's usable "
@@ -88,7 +112,14 @@ std::vector<std::string> not_sawn_text(const RunFolder& r) {
                 fmt("%.1f mm", ns.needed_diameter_mm - ns.usable_diameter_mm) + " short.");
   else
     t.push_back("The log was scanned but not sawn: " + or_none(ns.reason) + ".");
-  if (too_small || ns.needed_diameter_mm < 0)
+  if (too_small && set)
+    t.push_back(
+        "The scan is complete and kept in scan/ (log.json, the maps and the QA images). "
+        "To saw this log, give a pattern set with patterns for smaller logs, or one pattern "
+        "(a through-and-through pattern, tt, edges every board to the log and fits any log): "
+        "`sawyer saw scan/log.json -o sawing.json --pattern-set S` (or `--pattern P`) saws the "
+        "scanned model without scanning again.");
+  else if (too_small || ns.needed_diameter_mm < 0)
     t.push_back(
         "The scan is complete and kept in scan/ (log.json, the maps and the QA images). "
         "To saw this log, choose a pattern for smaller logs (a through-and-through "
@@ -580,7 +611,7 @@ class PdfWriter {
     y_ += wrap(text[0], kMargin, y_, kContentW, 10, 13) + 8;
     const double tw = (kContentW - 3 * 8) / 4;
     auto mm = [](double v) { return v >= 0 ? fmt("%.1f mm", v) : kNone; };
-    tile(kMargin, y_, tw, mm(ns.needed_diameter_mm), "diameter the pattern needs");
+    tile(kMargin, y_, tw, mm(ns.needed_diameter_mm), needed_label(ns));
     tile(kMargin + tw + 8, y_, tw, mm(ns.usable_diameter_mm), "usable diameter of the log");
     tile(kMargin + 2 * (tw + 8), y_, tw, fmt("%.2f m", c_.summary.length_mm * 1e-3), "length");
     tile(kMargin + 3 * (tw + 8), y_, tw, fmt("%.3f m³", c_.summary.volume_m3), "volume");
@@ -607,7 +638,9 @@ class PdfWriter {
     std::vector<std::string> notes(text.begin() + 1, text.end());
     notes.push_back("Sawyer: " + or_none(ns.reason) + ".");
     notes.push_back(
-        "Pattern " + or_none(c_.run->run.pattern) + ", grading " + or_none(c_.run->run.grading) +
+        (c_.run->run.pattern_set.empty() ? "Pattern " + or_none(c_.run->run.pattern)
+                                         : "Pattern set " + c_.run->run.pattern_set) +
+        ", grading " + or_none(c_.run->run.grading) +
         ". Scan source: " + or_none(c_.run->run.scan_source) +
         (c_.run->run.scan_checksum.empty() ? "" : " (" + c_.run->run.scan_checksum + ")") +
         ". Run stages: " + or_none(stages) + ".");
@@ -797,7 +830,7 @@ Rows position_rows(const Content& c) {
     return money(p.value, s.currency) +
            (p.has_smoothed ? " (expected " + fmt("%.2f)", p.smoothed_value) : "");
   };
-  return {
+  Rows rows = {
       {"Pattern", or_none(s.pattern)},
       {"Grading", or_none(s.grading)},
       {"Prices", or_none(s.prices) + (s.currency.empty() ? "" : " (" + s.currency + ")")},
@@ -819,6 +852,11 @@ Rows position_rows(const Content& c) {
       {"Horns-up", ref(s.horns_up)},
       {"Gain", percent(gain(s, s.horns_down, s.gain_over_horns_down)) + " over horns-down, " +
                    percent(gain(s, s.horns_up, s.gain_over_horns_up)) + " over horns-up" + basis}};
+  // With a pattern set: which pattern won, from which class, and the next best's value.
+  if (s.pattern_choice)
+    rows.insert(rows.begin() + 1,
+                {"Pattern choice", sawing::pattern_choice_line(*s.pattern_choice, s.currency)});
+  return rows;
 }
 
 Status write_pdf(const Content& c, const std::filesystem::path& path, int* pages) {
@@ -909,7 +947,7 @@ std::string report_html(const Content& c) {
       h << "<div class=\"tile\"><b>" << html_escape(v) << "</b><small>" << html_escape(l)
         << "</small></div>";
     };
-    tile(mm(ns.needed_diameter_mm), "diameter the pattern needs");
+    tile(mm(ns.needed_diameter_mm), needed_label(ns));
     tile(mm(ns.usable_diameter_mm), "usable diameter of the log");
     tile(fmt("%.2f m", c.summary.length_mm * 1e-3), "length");
     tile(fmt("%.3f m³", c.summary.volume_m3), "volume");
@@ -921,8 +959,10 @@ std::string report_html(const Content& c) {
     h << "<h2>Notes</h2>";
     for (size_t i = 1; i < text.size(); ++i) h << "<p>" << html_escape(text[i]) << "</p>";
     h << "<p class=\"meta\">Sawyer: " << html_escape(or_none(ns.reason)) << ".</p>\n"
-      << "<footer>Pattern " << html_escape(or_none(r.run.pattern)) << ", grading "
-      << html_escape(or_none(r.run.grading))
+      << "<footer>"
+      << html_escape(r.run.pattern_set.empty() ? "Pattern " + or_none(r.run.pattern)
+                                               : "Pattern set " + r.run.pattern_set)
+      << ", grading " << html_escape(or_none(r.run.grading))
       << ". Scan source: " << html_escape(or_none(r.run.scan_source))
       << ".</footer>\n</main>\n</body></html>\n";
     return h.str();
@@ -1050,8 +1090,10 @@ std::string report_json(const Content& c, const ReportFiles& files) {
                      {"pattern", ns.pattern},
                      {"needed_diameter_mm", ns.needed_diameter_mm},
                      {"usable_diameter_mm", ns.usable_diameter_mm}};
+    if (!ns.pattern_set.empty()) j["not_sawn"]["pattern_set"] = ns.pattern_set;
     if (r.log.qa) j["qa_trusted"] = r.log.qa->trusted;
     j["sawing"] = {{"pattern", r.run.pattern}, {"grading", r.run.grading}};
+    if (!r.run.pattern_set.empty()) j["sawing"]["pattern_set"] = r.run.pattern_set;
     j["boards"] = Json::array();
     j["totals"] = {{"boards", 0},
                    {"volume_m3", 0.0},
@@ -1069,6 +1111,21 @@ std::string report_json(const Content& c, const ReportFiles& files) {
                  {"grading", s.grading},
                  {"prices", s.prices},
                  {"currency", s.currency}};
+  // The pattern chosen from a set and the next best, with the values they give.
+  if (const auto& pc = s.pattern_choice) {
+    auto candidate = [&](int i) {
+      const sawing::PatternCandidateResult& k = pc->candidates[static_cast<size_t>(i)];
+      Json o = {{"name", k.name}, {"class", k.class_label}, {"value", k.value}};
+      if (k.has_expected) o["expected_value"] = k.expected_value;
+      return o;
+    };
+    j["sawing"]["pattern_choice"] = {
+        {"set", pc->set},
+        {"class", pc->class_label},
+        {"chosen", candidate(pc->chosen)},
+        {"next_best", pc->next_best < 0 ? Json() : candidate(pc->next_best)},
+        {"line", sawing::pattern_choice_line(*pc, s.currency)}};
+  }
   j["chosen"] = s.chosen_given ? "given" : "best";
   j["position"] = pos(s.chosen);
   j["horns_down"] = pos(s.horns_down);

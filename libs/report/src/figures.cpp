@@ -192,15 +192,19 @@ BoardSet place_boards(const RunFolder& run, const SawLog& log) {
     set.note = "Boards placed from sawing.json: " + why;
     return set;
   };
-  // The name given to `sawyer saw`, else the bundled pattern that carries sawing.json's name.
+  // The pattern chosen from a set, as sawing.json holds it; else the name given to `sawyer saw`,
+  // else the bundled pattern that carries sawing.json's name.
   std::vector<std::string> names;
-  if (!run.run.pattern.empty())
+  if (s.chosen_pattern)
+    names.push_back("");
+  else if (!run.run.pattern.empty())
     names.push_back(run.run.pattern);
   else
     names = {"2ex", "4ex", "tt"};
   std::string why = "pattern '" + s.pattern + "' not found";
   for (const std::string& name : names) {
-    Result<sawing::Pattern> p = sawing::pattern_by_name(name);
+    Result<sawing::Pattern> p =
+        name.empty() ? Result<sawing::Pattern>(*s.chosen_pattern) : sawing::pattern_by_name(name);
     if (!p) {
       why = p.error().message();
       continue;
@@ -223,10 +227,12 @@ BoardSet place_boards(const RunFolder& run, const SawLog& log) {
         sawn.boards[i] = sawing::cut_board(b, std::max(rec.z_begin_mm, b.z_begin),
                                            std::min(rec.z_end_mm, b.z_end));
     }
-    if (!same) return from_json("pattern '" + name + "' saws other boards than sawing.json lists");
+    const std::string which =
+        name.empty() ? "the chosen pattern '" + s.pattern + "'" : "pattern '" + name + "'";
+    if (!same) return from_json(which + " saws other boards than sawing.json lists");
     set.boards = std::move(sawn.boards);
     set.rebuilt = true;
-    set.note = "Boards sawn again with pattern '" + name + "': the same as sawing.json";
+    set.note = "Boards sawn again with " + which + ": the same as sawing.json";
     return set;
   }
   return from_json(why);

@@ -203,10 +203,16 @@ Result<ReportFiles> write_not_sawn_report(const RunFolder& run, const fs::path& 
   steps.begin("plots");
   const NotSawn& why = *run.run.not_sawn;
   // The pattern run.json names, to draw its boards; without it the circles say enough.
+  // With a pattern set, its smallest candidate for the log, which run.json names.
   std::optional<sawing::Pattern> pattern;
-  if (!run.run.pattern.empty())
+  if (!run.run.pattern.empty()) {
     if (Result<sawing::Pattern> p = sawing::pattern_by_name(run.run.pattern); p)
       pattern = std::move(p).value();
+  } else if (!run.run.pattern_set.empty() && !why.pattern.empty()) {
+    if (Result<sawing::PatternSet> set = sawing::pattern_set_by_name(run.run.pattern_set); set)
+      for (const sawing::Pattern* p : set.value().patterns())
+        if (p->name == why.pattern) pattern = *p;
+  }
   c.figures.push_back(
       {"top_end.png",
        "Top end",

@@ -51,6 +51,7 @@ Result<RunInfo> parse_run(const Json& j) {
     r.grading = opt_string(*o, "grading");
     r.prices = opt_string(*o, "prices");
     r.position = opt_string(*o, "position");
+    r.pattern_set = opt_string(*o, "pattern_set");
   }
   // A run that scanned the log but could not saw it says why (run_json_text).
   if (opt_string(j, "outcome") == "not sawn") {
@@ -58,6 +59,7 @@ Result<RunInfo> parse_run(const Json& j) {
     if (auto n = j.find("not_sawn"); n != j.end() && n->is_object()) {
       ns.reason = opt_string(*n, "reason");
       ns.pattern = opt_string(*n, "pattern");
+      ns.pattern_set = opt_string(*n, "pattern_set");
       auto num = [&](const char* key) {
         auto v = n->find(key);
         return v != n->end() && v->is_number() ? v->get<double>() : -1.0;
@@ -104,6 +106,7 @@ std::string run_json_text(const RunRecord& run) {
                      {"pattern", ns.pattern},
                      {"needed_diameter_mm", std::round(ns.needed_diameter_mm * 10) / 10},
                      {"usable_diameter_mm", std::round(ns.usable_diameter_mm * 10) / 10}};
+    if (!ns.pattern_set.empty()) j["not_sawn"]["pattern_set"] = ns.pattern_set;
   }
   j["scan_source"] = in.scan_source;
   j["scan_description"] = in.scan_description;
@@ -133,6 +136,24 @@ std::string run_json_text(const RunRecord& run) {
                   {"grading", in.grading},
                   {"prices", in.prices},
                   {"position", in.position}};
+  if (!in.pattern_set.empty()) j["options"]["pattern_set"] = in.pattern_set;
+  // The pattern chosen from the set and the next best, with the values they give (sawing.json's
+  // "pattern_choice" has every candidate).
+  if (const auto& pc = run.pattern_choice) {
+    auto candidate = [&](int i) {
+      const sawing::PatternCandidateResult& r = pc->candidates[static_cast<size_t>(i)];
+      Ordered o = {{"name", r.name}, {"class", r.class_label}, {"value", r.value}};
+      if (r.has_expected) o["expected_value"] = r.expected_value;
+      return o;
+    };
+    j["pattern_choice"] = {{"set", pc->set},
+                           {"class", pc->class_label},
+                           {"usable_diameter_mm", std::round(pc->usable_diameter_mm * 10) / 10},
+                           {"currency", run.currency},
+                           {"chosen", candidate(pc->chosen)},
+                           {"next_best", pc->next_best < 0 ? Ordered() : candidate(pc->next_best)},
+                           {"line", sawing::pattern_choice_line(*pc, run.currency)}};
+  }
   Ordered st = Ordered::array();
   for (const RunInfo::Stage& s : in.stages) {
     Ordered o = {{"name", s.name}, {"seconds", s.seconds}};

@@ -29,7 +29,9 @@ namespace sawyer::report {
 struct NotSawn {
   std::string reason;   // one line, e.g. check_pattern_fits()'s "pattern '2ex ...' does not fit:
                         // it needs a diameter of 182.0 mm, the log's usable diameter is ..."
-  std::string pattern;  // the pattern's name
+  std::string pattern;  // the pattern's name; with a pattern set its smallest candidate's ("":
+                        // the log is below the set's smallest class)
+  std::string pattern_set;  // the pattern set's name, when the pattern was to be chosen from one
   double needed_diameter_mm = -1;  // Pattern::required_diameter_mm()
   double usable_diameter_mm = -1;  // SawLog::usable_diameter_mm()
   // Not sawn because the pattern needs more than the log's usable diameter (both known); else
@@ -47,6 +49,8 @@ struct RunInfo {
   // The names `sawyer saw` was given (pattern "2ex" or a file, grading "nordic" or a file, prices
   // file or "" for the example prices, position "rot,x,y" or "").
   std::string pattern, grading, prices, position;
+  // The pattern set `sawyer run` was given ("nordic" or a file; "" for one pattern).
+  std::string pattern_set;
   // What the reader had to do to the scan (slices interpolated along z, files ignored, ...),
   // one line each; the report states them under its header.
   std::vector<std::string> scan_notes;
@@ -77,6 +81,10 @@ struct RunRecord {
   std::optional<ScannerFrame> scanner_frame;
   size_t slices = 0, knots = 0;
   std::optional<ScanQa> qa;
+  // How the pattern was chosen from the set (sawing.json has it whole): the set, the log's class,
+  // the chosen and the next best pattern with their values.
+  std::optional<sawing::PatternChoice> pattern_choice;
+  std::string currency;
 };
 
 // run.json's one writer (its reader is load_run_folder): the text, and the file written

@@ -2,7 +2,7 @@
 // loaded and checked before any work, the optimiser run over a log, and the `sawyer-sawing/1`
 // file (docs/sawing.md) that the report and the viewer read.
 //
-//   Result<SawSetup> setup = load_saw_setup({"2ex", "nordic", "", ""}, OptimiseOptions{});
+//   Result<SawSetup> setup = load_saw_setup({"2ex", "nordic", "", "", ""}, OptimiseOptions{});
 //   Result<SawingOutcome> out = saw_log_model(log, setup.value(), progress);
 //   nlohmann::ordered_json file = sawing_file_json(log, setup.value(), out.value());
 //
