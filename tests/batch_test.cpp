@@ -363,7 +363,7 @@ class BatchEndToEnd : public ::testing::Test {
       std::istringstream in(read(e.path()));
       std::string line;
       std::getline(in, line);
-      EXPECT_EQ(line, "id,ct,status,exit_code,seconds,value,error");
+      EXPECT_EQ(line, "id,ct,status,exit_code,seconds,value,pattern,error");
       while (std::getline(in, line)) {
         std::vector<std::string> cells;
         std::istringstream ls(line);
@@ -493,4 +493,57 @@ TEST_F(BatchEndToEnd, ALogThePatternDoesNotFitIsCountedNotSawn) {
   EXPECT_TRUE(fs::exists(out / "BIG" / "scan" / "log.json"));
   EXPECT_TRUE(fs::exists(out / "BIG" / "report" / "report.pdf"));
   EXPECT_FALSE(fs::exists(out / "BIG" / "sawing.json"));
+}
+
+// --pattern-set after -- reaches every `sawyer run` like any run option; a row's own pattern (or
+// pattern_set) replaces it for that log; the CSV's pattern column says what each log was sawn
+// with (the one chosen from the set, from the register).
+TEST_F(BatchEndToEnd, APatternSetIsPassedThroughAndTheTableShowsTheChosenPattern) {
+  test::write_file(path("short_set.json"), R"({"format": "sawyer-pattern-set/1", "name": "short",
+    "classes": [{"min_diameter_mm": 100, "max_diameter_mm": 500, "patterns": [
+      {"preset": "2ex", "name": "2ex 50x100 short", "centre_width_mm": 100,
+       "wane": {"min_length_mm": 200, "length_step_mm": 100}},
+      {"preset": "2ex", "name": "2ex 50x150 short",
+       "wane": {"min_length_mm": 200, "length_step_mm": 100}}]}]})");
+  test::write_file(path("manifest_set.csv"),
+                   "ct,id,species,pattern,pattern_set\n"
+                   "scans/log_s1,S1,spruce,,\n"
+                   "scans/log_s2,S2,spruce,tt,\n");
+  const fs::path out = path("out_set"), db = path("set.sqlite");
+  std::string output;
+  const int rc =
+      test::run_sawyer("batch " + test::quoted(path("manifest_set.csv")) + " -o " +
+                           test::quoted(out) + " --db " + test::quoted(db) + " -- --pattern-set " +
+                           test::quoted(path("short_set.json")) + " --threads 1",
+                       &output);
+  ASSERT_EQ(rc, 0) << output;
+  std::istringstream in(read(out / "batch_0.csv"));
+  std::string line;
+  std::getline(in, line);
+  ASSERT_EQ(line, "id,ct,status,exit_code,seconds,value,pattern,error");
+  std::map<std::string, std::string> pattern;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::istringstream ls(line);
+    for (std::string cell; std::getline(ls, cell, ',');) cells.push_back(cell);
+    ASSERT_GE(cells.size(), 7u) << line;
+    // These coarse test scans fail their QA verdict (exit 3): sawn and registered all the same.
+    EXPECT_TRUE(cells[2] == "ok" || cells[2] == "qa_warnings") << line;
+    pattern[cells[0]] = cells[6];
+  }
+  EXPECT_TRUE(pattern["S1"] == "2ex 50x100 short" || pattern["S1"] == "2ex 50x150 short")
+      << pattern["S1"];
+  EXPECT_EQ(pattern["S2"].rfind("through-and-through", 0), 0u) << pattern["S2"];
+  // S1's run was given the set, S2's the row's pattern only.
+  EXPECT_NE(read(out / "S1" / "run.json").find("\"pattern_set\""), std::string::npos);
+  EXPECT_EQ(read(out / "S2" / "run.json").find("\"pattern_set\""), std::string::npos);
+
+  // A row may not give both.
+  test::write_file(path("manifest_both.csv"),
+                   "ct,id,pattern,pattern_set\nscans/log_s1,S1,tt,nordic\n");
+  EXPECT_EQ(test::run_sawyer("batch " + test::quoted(path("manifest_both.csv")) + " -o " +
+                                 test::quoted(path("out_both")) + " --no-register",
+                             &output),
+            1);
+  EXPECT_NE(output.find("both a pattern and a pattern_set"), std::string::npos) << output;
 }

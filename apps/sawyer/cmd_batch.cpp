@@ -89,7 +89,14 @@ std::vector<std::string> run_command(const fs::path& exe, const ManifestRow& row
     a.insert(a.end(), {option, value});
   };
   cell("--species", row.species);
+  // A row's pattern or pattern set replaces the batch-wide one of either kind (`sawyer run`
+  // takes one of them).
+  if (!row.pattern.empty() || !row.pattern_set.empty()) {
+    drop_option(pass, "--pattern");
+    drop_option(pass, "--pattern-set");
+  }
   cell("--pattern", row.pattern);
+  cell("--pattern-set", row.pattern_set);
   cell("--grading", row.grading);
   cell("--prices", row.prices);
   cell("--position", row.position);
@@ -204,14 +211,15 @@ int run(const BatchCli& c) {
     Result<LogRegister> r = LogRegister::open_read_only(db);
     if (r) reg.emplace(std::move(r).value());
   }
-  std::string csv = "id,ct,status,exit_code,seconds,value,error\n";
+  // The pattern each log was sawn with (chosen per log with --pattern-set), from the register.
+  std::string csv = "id,ct,status,exit_code,seconds,value,pattern,error\n";
   int failed = 0, warned = 0, not_sawn = 0;
   for (size_t i = 0; i < rows.size(); ++i) {
     const JobResult& r = results[i];
     failed += !r.completed();
     warned += r.warned();
     not_sawn += r.not_sawn();
-    std::string value;
+    std::string value, pattern;
     // A log that was not sawn has no register row of this run (an earlier run's may be there).
     if (r.completed() && !r.not_sawn() && reg) {
       const fs::path source = fs::weakly_canonical(rows[i]->ct_path, ec);
@@ -220,6 +228,7 @@ int run(const BatchCli& c) {
         char buf[32];
         std::snprintf(buf, sizeof buf, "%.2f", rec.value()->value);
         value = buf;
+        pattern = rec.value()->pattern;
       }
     }
     csv += csv_cell(r.id) + "," + csv_cell(rows[i]->ct_path.string()) + "," +
@@ -228,7 +237,7 @@ int run(const BatchCli& c) {
             : r.not_sawn() ? "not_sawn"
                            : "failed") +
            "," + std::to_string(r.exit_code) + "," + seconds_text(r.seconds) + "," + value + "," +
-           csv_cell(r.error) + "\n";
+           csv_cell(pattern) + "," + csv_cell(r.error) + "\n";
   }
   const fs::path csv_path = out_dir / ("batch_" + std::to_string(shard.value().index) + ".csv");
   if (Status s = write_text_file_atomic(csv_path, csv); !s) return fail(s.error());
@@ -252,7 +261,7 @@ void add_batch_command(CLI::App& app, std::function<int()>& run_out) {
       "failed, 1 bad manifest or options");
   cmd->add_option("manifest", c->manifest,
                   "CSV with a header: ct (required; relative to the manifest's folder), id, "
-                  "species, pattern, grading, prices, position")
+                  "species, pattern or pattern_set, grading, prices, position")
       ->required();
   cmd->add_option("-o,--output", c->output,
                   "output folder: <dir>/<id>/ per log, <dir>/logs/<id>.err, <dir>/batch_<i>.csv")
@@ -273,9 +282,11 @@ void add_batch_command(CLI::App& app, std::function<int()>& run_out) {
                   "seconds a log may take before it is stopped and counted failed (0: no limit)")
       ->capture_default_str()
       ->check(number_in(0, 1e7, " s", 0, "0: no limit"));
-  cmd->add_option("run_options", c->pass,
-                  "after --: options for every `sawyer run` (--pattern, --grading, --prices, "
-                  "...); manifest cells override them");
+  cmd->add_option(
+      "run_options", c->pass,
+      "after --: options for every `sawyer run` (--pattern or --pattern-set, --grading, "
+      "--prices, "
+      "...); manifest cells override them");
   cmd->callback([c, &run_out]() { run_out = [c]() { return run(*c); }; });
 }
 

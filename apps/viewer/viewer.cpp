@@ -19,6 +19,7 @@
 #include "sawyer/render/framebuffer.h"
 #include "sawyer/render/gl_context.h"
 #include "sawyer/render/views.h"
+#include "sawyer/sawing/sawing_file.h"
 
 namespace sawyer::view {
 namespace {
@@ -141,6 +142,8 @@ Status Viewer::load(std::unique_ptr<LogModel> log, const fs::path& path) {
   log_ = std::move(log);
   path_ = path;
   open_text_ = path.string();
+  // A run folder's log: the pattern its run chose from a pattern set, if it did.
+  run_choice_line_ = sawing::run_pattern_choice_line(path);
   knots_.upload(knot_tubes(*log_));
   pith_.upload(pith_line(log_->stem, kPithColor));
   surface_.upload(log_surface(log_->stem, kSurfaceColor));
@@ -518,6 +521,7 @@ void Viewer::ui_controls(float x, float y, float w, float h) {
     ImGui::Checkbox("sawing mode", &sawing_mode_);
     ImGui::SameLine();
     ImGui::TextDisabled("pattern, grades, value");
+    if (!run_choice_line_.empty()) ImGui::TextWrapped("run: %s", run_choice_line_.c_str());
   }
 
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) {

@@ -185,6 +185,7 @@ class Viewer {
   bool dragging_ = false, panning_ = false, quit_ = false;
   bool reset_pending_ = true;  // frame the log once the 3D view's size is known
   std::string open_text_, screenshot_text_, status_line_;
+  std::string run_choice_line_;  // the run's pattern choice (sawing::run_pattern_choice_line)
   bool status_error_ = false;
   std::optional<std::filesystem::path> screenshot_request_, open_request_;
   float aspect_3d_ = 1.5f;

@@ -99,8 +99,8 @@ std::string default_id(const fs::path& ct) {
 }  // namespace
 
 const std::vector<std::string>& manifest_columns() {
-  static const std::vector<std::string> kColumns = {"ct",      "id",     "species", "pattern",
-                                                    "grading", "prices", "position"};
+  static const std::vector<std::string> kColumns = {
+      "ct", "id", "species", "pattern", "pattern_set", "grading", "prices", "position"};
   return kColumns;
 }
 
@@ -215,6 +215,11 @@ Result<Manifest> read_manifest(const fs::path& path) {
       return fs::exists(base / v, ec) ? (base / v).lexically_normal().string() : v;
     };
     row.pattern = resolve(cell("pattern"));
+    row.pattern_set = resolve(cell("pattern_set"));
+    if (!row.pattern.empty() && !row.pattern_set.empty())
+      return Error(at(first_line),
+                   "a row gives both a pattern and a pattern_set; give one of "
+                   "them");
     row.grading = resolve(cell("grading"));
     row.prices = resolve(cell("prices"));
     m.rows.push_back(std::move(row));

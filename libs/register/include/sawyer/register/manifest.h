@@ -1,7 +1,7 @@
 // The batch manifest: a CSV list of CT scans for `sawyer batch` (docs/batch.md), and the shards
 // that split it over a Slurm job array or a Kubernetes Indexed Job.
 //
-//   ct,id,species,pattern,grading,prices,position
+//   ct,id,species,pattern,grading,prices,position   (a pattern_set column may replace pattern)
 //   scans/log_0001,L0001,spruce,,,,
 //   /data/ct/log_0002.mha,L0002,pine,4ex,gost,prices_2026.json,
 //
@@ -23,6 +23,7 @@ struct ManifestRow {
   std::filesystem::path ct_path;  // absolute: relative paths are taken from the manifest's folder
   std::string id;                 // as written, else the CT folder's name or the volume file's stem
   std::string species, pattern, grading, prices, position;  // empty: not given
+  std::string pattern_set;  // empty: not given; never with `pattern`
 };
 
 struct Manifest {
@@ -35,7 +36,8 @@ const std::vector<std::string>& manifest_columns();
 
 // Reads a manifest: a header row naming the columns (`ct` required, unknown names refused),
 // then one row per CT scan. RFC 4180 quoting ("a,b", "say ""x"""), CRLF, a UTF-8 BOM, blank
-// lines and lines starting with '#' are accepted. `pattern`, `grading` and `prices` values that
+// lines and lines starting with '#' are accepted. `pattern`, `pattern_set`, `grading` and
+// `prices` values that
 // name an existing file relative to the manifest's folder become absolute paths; other values
 // (2ex, nordic...) are kept as written. Errors name the file and line: a missing header or ct
 // column, a row with the wrong number of cells, an empty ct, an id that cannot be a folder name
