@@ -273,6 +273,33 @@ TEST(PatternSet, LimitsAreCheckedBeforeTheWork) {
 // The choice on generated logs: the thin log's pattern fits it, the thick log's pattern is one
 // the thin log could not be sawn with; each is the best of all candidates that fit (each sawn on
 // its own as a single pattern gives no more), and the next best is the runner-up.
+// The largest set the limits allow, one 200-board pattern repeated in every class (a name may
+// recur when its boards are the same): read whole, and its candidates are that one pattern.
+// (Each pattern was once compared with every earlier one: minutes for this file.)
+TEST(PatternSet, TheLargestSetAllowedIsReadAndOneNameIsOneCandidate) {
+  test::TempDir dir;
+  const std::string entry =
+      R"({"preset": "tt", "name": "x", "board_count": 200, "thickness_mm": 12})";
+  std::string classes;
+  for (int i = 0; i < kMaxPatternSetClasses; ++i) {
+    std::string patterns;
+    for (int k = 0; k < kMaxClassPatterns; ++k) patterns += (k ? "," : "") + entry;
+    classes += std::string(i ? "," : "") + "{\"min_diameter_mm\": " + std::to_string(100 + 10 * i) +
+               ", \"max_diameter_mm\": " + std::to_string(110 + 10 * i) + ", \"patterns\": [" +
+               patterns + "]}";
+  }
+  test::write_file(
+      dir / "big.json",
+      R"({"format": "sawyer-pattern-set/1", "name": "big", "classes": [)" + classes + "]}");
+  const Result<PatternSet> r = read_pattern_set_file(dir / "big.json");
+  ASSERT_TRUE(r.ok()) << r.error().message();
+  EXPECT_EQ(r.value().classes.size(), static_cast<size_t>(kMaxPatternSetClasses));
+  EXPECT_EQ(r.value().patterns().size(), 1u);
+  const std::vector<PatternCandidate> c = r.value().candidates(500.0);
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].pattern->boards.size(), 200u);
+}
+
 TEST(PatternSetChoice, AThinLogGetsASmallerPatternThanAThickLog) {
   const SawSetup su = set_setup("nordic");
   const LogModel thin = generated(165, 3), thick = generated(330, 5);

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <set>
 
 #include "json_text.h"
@@ -149,7 +150,13 @@ Status PatternSet::validate() const {
   if (classes.size() > static_cast<size_t>(kMaxPatternSetClasses))
     return Error(where, "has " + std::to_string(classes.size()) + " classes, more than the " +
                             std::to_string(kMaxPatternSetClasses) + " allowed");
-  std::vector<std::pair<const Pattern*, std::string>> seen;  // each name's first pattern
+  // Each name's first pattern, written out once, and where it is: a file may repeat one pattern
+  // in every class (2 000 entries of 200 boards), and comparing every pair took minutes.
+  struct First {
+    Json written;
+    std::string where;
+  };
+  std::map<std::string, First> seen;
   for (size_t i = 0; i < classes.size(); ++i) {
     const DiameterClass& c = classes[i];
     const std::string cw = class_where(name, i, c);
@@ -173,11 +180,15 @@ Status PatternSet::validate() const {
       const std::string pw = cw + ", pattern " + std::to_string(k);
       if (p.name.empty()) return Error(pw, "has no name (the files name the chosen pattern)");
       if (Status s = p.validate(); !s) return s.error().with_context(pw);
-      for (const auto& [q, q_where] : seen)
-        if (q->name == p.name && pattern_json_object(*q) != pattern_json_object(p))
-          return Error(pw, "'" + p.name + "' is also the name of " + q_where +
+      Json written = pattern_json_object(p);
+      if (auto q = seen.find(p.name); q != seen.end()) {
+        if (q->second.written != written)
+          return Error(pw, "'" + p.name + "' is also the name of " + q->second.where +
                                ", which saws other boards; give it another name");
-      seen.emplace_back(&p, "class " + std::to_string(i) + "'s pattern " + std::to_string(k));
+        continue;
+      }
+      seen.emplace(p.name, First{std::move(written),
+                                 "class " + std::to_string(i) + "'s pattern " + std::to_string(k)});
     }
   }
   return Status::Ok();
