@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "fit_text.h"
+
 namespace sawyer::sawing {
 
 namespace {
@@ -18,13 +20,18 @@ Rect rect_of(const BoardSpec& b) {
   return {b.u_mm - hu, b.u_mm + hu, b.v_mm - hv, b.v_mm + hv};
 }
 
-std::string fmt(const char* f, double a) {
+}  // namespace
+
+std::string fmt(const char* format, double v) {
   char buf[64];
-  std::snprintf(buf, sizeof buf, f, a);
+  std::snprintf(buf, sizeof buf, format, v);
   return buf;
 }
 
-}  // namespace
+std::string usable_diameter_text(double usable_diameter_mm) {
+  return "the log's usable diameter is " + fmt("%.1f", usable_diameter_mm) +
+         " mm (inscribed in the top end, under bark)";
+}
 
 Status Pattern::validate() const {
   const std::string where = name.empty() ? "pattern" : "pattern '" + name + "'";
@@ -161,8 +168,7 @@ Status check_pattern_fits(const Pattern& p, double usable_diameter_mm, const std
   if (need <= usable_diameter_mm) return Status::Ok();
   return Error("log '" + log_id + "'",
                "pattern '" + p.name + "' does not fit: it needs a diameter of " +
-                   fmt("%.1f", need) + " mm, the log's usable diameter is " +
-                   fmt("%.1f", usable_diameter_mm) + " mm (inscribed in the top end, under bark)");
+                   fmt("%.1f", need) + " mm, " + usable_diameter_text(usable_diameter_mm));
 }
 
 }  // namespace sawyer::sawing

@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "fit_text.h"
 #include "json_text.h"
 #include "pattern_json.h"
 #include "sawyer/core/file_util.h"
@@ -18,12 +19,6 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 constexpr const char* kPatternSetFormatTag = "sawyer-pattern-set/1";
-
-std::string mm_text(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
 
 std::string set_where(const std::string& name) {
   return name.empty() ? "pattern set" : "pattern set '" + name + "'";
@@ -139,7 +134,7 @@ Result<Pattern> pattern_entry(const Json& o) {
 
 std::string DiameterClass::label() const {
   if (!name.empty()) return name;
-  return mm_text(min_diameter_mm) + "-" + mm_text(max_diameter_mm) + " mm";
+  return fmt("%g", min_diameter_mm) + "-" + fmt("%g", max_diameter_mm) + " mm";
 }
 
 Status PatternSet::validate() const {
@@ -163,12 +158,12 @@ Status PatternSet::validate() const {
     if (!(c.min_diameter_mm >= 0) || !(c.max_diameter_mm > c.min_diameter_mm) ||
         !(c.max_diameter_mm <= kMaxBoardSizeMm))
       return Error(cw, "needs 0 <= min_diameter_mm < max_diameter_mm <= " +
-                           mm_text(kMaxBoardSizeMm) + " mm");
+                           fmt("%g", kMaxBoardSizeMm) + " mm");
     if (i > 0 && c.min_diameter_mm != classes[i - 1].max_diameter_mm)
-      return Error(cw, "starts at " + mm_text(c.min_diameter_mm) +
+      return Error(cw, "starts at " + fmt("%g", c.min_diameter_mm) +
                            " mm, but the class before "
                            "ends at " +
-                           mm_text(classes[i - 1].max_diameter_mm) +
+                           fmt("%g", classes[i - 1].max_diameter_mm) +
                            " mm: classes must follow each other in ascending order, without a "
                            "gap or an overlap");
     if (c.patterns.empty()) return Error(cw, "has no patterns");

@@ -7,6 +7,7 @@
 #include <optional>
 #include <utility>
 
+#include "fit_text.h"
 #include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/setup.h"
 
@@ -138,12 +139,6 @@ Result<PatternSawing> saw_pattern(const SawSetup& setup, const SawLog& log, cons
   return out;
 }
 
-std::string mm1(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f", v);
-  return buf;
-}
-
 // Every candidate of the set that fits the log sawn in turn; the best kept in `out`.
 Status choose_and_saw(const SawSetup& setup, SawingOutcome& out,
                       const std::function<void(int, int)>& progress) {
@@ -217,16 +212,15 @@ Status check_setup_fits(const SawSetup& setup, double usable, const std::string&
   if (need.needed_diameter_mm <= usable) return Status::Ok();
   const PatternSet& set = *setup.pattern_set;
   const std::string log = "log '" + log_id + "'";
-  const std::string usable_text =
-      "the log's usable diameter is " + mm1(usable) + " mm (inscribed in the top end, under bark)";
+  const std::string usable_text = usable_diameter_text(usable);
   if (need.pattern.empty())
     return Error(log, "no pattern of pattern set '" + set.name + "' fits: " + usable_text +
                           ", below the set's smallest class (" + set.classes.front().label() + ")");
   return Error(log, "no pattern of pattern set '" + set.name + "' fits: the smallest of its " +
                         "candidates for class " +
                         set.classes[static_cast<size_t>(set.class_of(usable))].label() + ", '" +
-                        need.pattern + "', needs a diameter of " + mm1(need.needed_diameter_mm) +
-                        " mm, " + usable_text);
+                        need.pattern + "', needs a diameter of " +
+                        fmt("%.1f", need.needed_diameter_mm) + " mm, " + usable_text);
 }
 
 Result<SawingOutcome> saw_log_model(const LogModel& log, const SawSetup& setup,
