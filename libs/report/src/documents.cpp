@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "sawyer/sawing/sawing_file.h"
 #include "sawyer/sawing/sawing_job.h"
 
 namespace sawyer::report {
@@ -1113,17 +1114,11 @@ std::string report_json(const Content& c, const ReportFiles& files) {
                  {"currency", s.currency}};
   // The pattern chosen from a set and the next best, with the values they give.
   if (const auto& pc = s.pattern_choice) {
-    auto candidate = [&](int i) {
-      const sawing::PatternCandidateResult& k = pc->candidates[static_cast<size_t>(i)];
-      Json o = {{"name", k.name}, {"class", k.class_label}, {"value", k.value}};
-      if (k.has_expected) o["expected_value"] = k.expected_value;
-      return o;
-    };
     j["sawing"]["pattern_choice"] = {
         {"set", pc->set},
         {"class", pc->class_label},
-        {"chosen", candidate(pc->chosen)},
-        {"next_best", pc->next_best < 0 ? Json() : candidate(pc->next_best)},
+        {"chosen", sawing::pattern_candidate_value_json(*pc, pc->chosen)},
+        {"next_best", sawing::pattern_candidate_value_json(*pc, pc->next_best)},
         {"line", sawing::pattern_choice_line(*pc, s.currency)}};
   }
   j["chosen"] = s.chosen_given ? "given" : "best";

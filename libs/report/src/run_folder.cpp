@@ -140,18 +140,12 @@ std::string run_json_text(const RunRecord& run) {
   // The pattern chosen from the set and the next best, with the values they give (sawing.json's
   // "pattern_choice" has every candidate).
   if (const auto& pc = run.pattern_choice) {
-    auto candidate = [&](int i) {
-      const sawing::PatternCandidateResult& r = pc->candidates[static_cast<size_t>(i)];
-      Ordered o = {{"name", r.name}, {"class", r.class_label}, {"value", r.value}};
-      if (r.has_expected) o["expected_value"] = r.expected_value;
-      return o;
-    };
     j["pattern_choice"] = {{"set", pc->set},
                            {"class", pc->class_label},
                            {"usable_diameter_mm", std::round(pc->usable_diameter_mm * 10) / 10},
                            {"currency", run.currency},
-                           {"chosen", candidate(pc->chosen)},
-                           {"next_best", pc->next_best < 0 ? Ordered() : candidate(pc->next_best)},
+                           {"chosen", sawing::pattern_candidate_value_json(*pc, pc->chosen)},
+                           {"next_best", sawing::pattern_candidate_value_json(*pc, pc->next_best)},
                            {"line", sawing::pattern_choice_line(*pc, run.currency)}};
   }
   Ordered st = Ordered::array();

@@ -120,13 +120,15 @@ Result<Pattern> pattern_from_json(const std::string& text) {
   return pattern_from_json_object(parsed.value());
 }
 
-std::string pattern_to_json(const Pattern& p) {
+Json pattern_file_json(const Pattern& p) {
   Json j;
   j["format"] = kPatternFormatTag;
   const Json body = pattern_json_object(p);  // items() refers to it: not a temporary
   for (const auto& [key, value] : body.items()) j[key] = value;
-  return j.dump(2) + "\n";
+  return j;
 }
+
+std::string pattern_to_json(const Pattern& p) { return pattern_file_json(p).dump(2) + "\n"; }
 
 Result<Pattern> read_pattern_file(const std::filesystem::path& path) {
   Result<std::string> text = read_data_file(path);

@@ -16,6 +16,8 @@ namespace sawyer::sawing {
 Result<Pattern> pattern_from_json_object(const nlohmann::ordered_json& j);
 // Every key of the pattern, in the file's order.
 nlohmann::ordered_json pattern_json_object(const Pattern& p);
+// The whole sawyer-pattern/1 file: "format", then pattern_json_object's keys.
+nlohmann::ordered_json pattern_file_json(const Pattern& p);
 
 // Reads the number at obj[key] into *dst when it is there (missing: an error when `required`);
 // errors name "<where>.<key>" (`where` empty: the key alone) and say a number was expected or

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "fit_text.h"
 #include "pattern_json.h"
 #include "sawyer/core/file_util.h"
 #include "sawyer/model/log_json.h"
@@ -146,33 +147,32 @@ Json pattern_choice_json(const PatternChoice& c, const Pattern& chosen) {
   Json all = Json::array();
   for (const PatternCandidateResult& r : c.candidates) all.push_back(candidate_json(r));
   j["candidates"] = std::move(all);
-  Json p;
-  p["format"] = "sawyer-pattern/1";
-  const Json body = pattern_json_object(chosen);  // items() refers to it: not a temporary
-  for (const auto& [key, value] : body.items()) p[key] = value;
-  j["pattern"] = std::move(p);
+  j["pattern"] = pattern_file_json(chosen);
   return j;
 }
 
 }  // namespace
 
+Json pattern_candidate_value_json(const PatternChoice& c, int i) {
+  if (i < 0) return Json();
+  const PatternCandidateResult& r = c.candidates[static_cast<size_t>(i)];
+  Json j = {{"name", r.name}, {"class", r.class_label}, {"value", r.value}};
+  if (r.has_expected) j["expected_value"] = r.expected_value;
+  return j;
+}
+
 std::string pattern_choice_line(const PatternChoice& c, const std::string& currency) {
-  auto num = [](const char* f, double v) {
-    char buf[48];
-    std::snprintf(buf, sizeof buf, f, v);
-    return std::string(buf);
-  };
   const PatternCandidateResult& chosen = c.candidates[static_cast<size_t>(c.chosen)];
   const std::string what = c.at_given_position ? "at the given position " : "expected ";
   const std::string unit = currency.empty() ? "" : " " + currency;
   std::string line = "pattern '" + chosen.name + "' chosen from set '" + c.set + "' (class " +
-                     c.class_label + ", usable diameter " + num("%.1f", c.usable_diameter_mm) +
-                     " mm), " + what + num("%.2f", chosen.rank_value()) + unit;
+                     c.class_label + ", usable diameter " + fmt("%.1f", c.usable_diameter_mm) +
+                     " mm), " + what + fmt("%.2f", chosen.rank_value()) + unit;
   if (c.next_best >= 0) {
     const PatternCandidateResult& next = c.candidates[static_cast<size_t>(c.next_best)];
     const double best = chosen.rank_value();
-    line += "; next best '" + next.name + "', " + what + num("%.2f", next.rank_value()) + unit +
-            " (" + num("%+.1f", best > 0 ? 100 * (next.rank_value() / best - 1) : 0.0) + " %)";
+    line += "; next best '" + next.name + "', " + what + fmt("%.2f", next.rank_value()) + unit +
+            " (" + fmt("%+.1f", best > 0 ? 100 * (next.rank_value() / best - 1) : 0.0) + " %)";
   } else {
     line += "; no other candidate fits";
   }

@@ -110,6 +110,9 @@ struct ValueSurface {
 // '4ex 38x100 + 2×22x100 sides', expected 110.20 EUR (-10.8 %); 5 candidates, 4 fit". Values at
 // the given position ("at the given position 120.00 EUR") when the choice was made there.
 std::string pattern_choice_line(const PatternChoice& c, const std::string& currency);
+// Candidate i of the choice in a few words for run.json and report.json: name, class, value and
+// expected_value (when the choice was made on expected values); null for i < 0 (no next best).
+nlohmann::ordered_json pattern_candidate_value_json(const PatternChoice& c, int i);
 
 // For a log.json in a run folder (<run>/scan/log.json): the run's pattern choice as
 // pattern_choice_line writes it, from <run>/sawing.json; "" when there is no such file, it
