@@ -2,7 +2,7 @@
 // (issue 21, item 3; docs/sawing.md "Decision quality").
 //
 //   decision [--logs N] [--seed S] [--threads T] [--only I[,J...]] [--grading nordic|gost|FILE]
-//            [--scan-draws K]
+//            [--scan-draws K] [--pattern-set nordic|FILE|none]
 //
 // Each of N logs (the three bundled ones first, then generated pine and spruce, 3-4.5 m) is put
 // in a virtual scanner under conditions drawn from the robustness sweep's ranges for whole-log
@@ -24,6 +24,13 @@
 // --scan-draws K: a second decision on the scanned model that counts its scan uncertainty (K
 // draws of its knots, OptimiseOptions::model_draws), valued on the truth the same way; printed
 // beside the first (the truth is always valued as it is).
+// --pattern-set (default nordic, the bundled set; none: off): the decision again with the pattern
+// chosen from the set as `sawyer run --pattern-set` chooses it (every candidate of the scanned
+// log's diameter class and its neighbours that fits, the highest expected value), valued on the
+// truth: the truth's value at the chosen pattern and position over the truth's best over its own
+// candidates (the set's classes by the true usable diameter) and positions; the claim and the
+// realised gain over horns-down of the chosen pattern; which pattern the truth would have chosen;
+// and the truth's value against the single 2ex decision (issue 43, item 4). A second table.
 // Prints one row per log, then the figures against issue 21's targets.
 #include <algorithm>
 #include <chrono>
@@ -47,8 +54,10 @@
 #include "sawyer/sawing/grading.h"
 #include "sawyer/sawing/optimise.h"
 #include "sawyer/sawing/pattern.h"
+#include "sawyer/sawing/pattern_set.h"
 #include "sawyer/sawing/placement.h"
 #include "sawyer/sawing/sawing.h"
+#include "sawyer/sawing/setup.h"
 #include "sawyer/sawing/value.h"
 
 using namespace sawyer;
@@ -162,8 +171,9 @@ size_t argmax(const std::vector<double>& v) {
 struct Pricing {
   sw::GradingRules rules;
   sw::PriceTable prices;
-  sw::OptimiseOptions options;  // the truth's (no draws)
-  int draws = 0;                // the deciding model's scan-uncertainty draws
+  sw::OptimiseOptions options;        // the truth's (no draws)
+  int draws = 0;                      // the deciding model's scan-uncertainty draws
+  std::optional<sw::PatternSet> set;  // --pattern-set
 };
 
 // The chosen position of `decide` (a model of the log) valued on `truth`: the truth's expected
@@ -192,6 +202,19 @@ Result<Valued> value_decision(const LogModel& decide, const LogModel& truth, con
   return v;
 }
 
+// The decision with the pattern chosen from the set (--pattern-set).
+struct SetRow {
+  bool ok = false;
+  std::string note;
+  double usable_scan = NAN, usable_true = NAN;
+  std::string chosen, next_best, truth_choice;  // patterns: chosen on the scan, the truth's best
+  int fitting = 0;                              // candidates that fit the scanned log
+  double claimed = NAN, realised = NAN, recovery = NAN;
+  double truth_eur = NAN;  // the truth's expected value at the chosen pattern and position
+  double truth_best_eur = NAN;
+  double vs_two_ex = NAN;  // truth_eur over the single 2ex decision's value on the truth − 1
+};
+
 struct Row {
   int id = 0;
   std::string log, note;
@@ -204,8 +227,73 @@ struct Row {
   double claimed_draws = NAN, realised_draws = NAN, recovery_draws = NAN;  // --scan-draws
   double seconds = 0;
   std::string grade_changes;
+  SetRow set;
   bool ok = false;
 };
+
+// The pattern chosen from the set on the scanned model and valued on the truth (SetRow).
+SetRow decide_from_set(const LogModel& scan, const LogModel& truth, const Pricing& pr,
+                       double two_ex_truth_eur) {
+  const sw::PatternSet& set = *pr.set;
+  SetRow out;
+  const sw::SawLog s_log(scan), t_log(truth);
+  out.usable_scan = s_log.usable_diameter_mm();
+  out.usable_true = t_log.usable_diameter_mm();
+  auto fitting = [&](double usable) {
+    std::vector<const sw::Pattern*> ps;
+    for (const sw::PatternCandidate& c : set.candidates(usable))
+      if (c.pattern->required_diameter_mm() <= usable) ps.push_back(c.pattern);
+    return ps;
+  };
+  // On the scan: every candidate that fits, ranked by its best expected value (choose_and_saw).
+  const std::vector<const sw::Pattern*> on_scan = fitting(out.usable_scan);
+  out.fitting = static_cast<int>(on_scan.size());
+  if (on_scan.empty()) return out.note = "no pattern of the set fits the scanned log", out;
+  std::optional<Valued> chosen;
+  const sw::Pattern* chosen_p = nullptr;
+  double next_value = -1;
+  for (const sw::Pattern* p : on_scan) {
+    Result<Valued> v = value_decision(scan, truth, *p, pr);
+    if (!v) return out.note = v.error().message(), out;
+    const double ev = v.value().decided.best.smoothed;
+    if (!chosen || ev > chosen->decided.best.smoothed) {
+      if (chosen) next_value = chosen->decided.best.smoothed, out.next_best = chosen_p->name;
+      chosen = std::move(v).value();
+      chosen_p = p;
+    } else if (ev > next_value) {
+      next_value = ev, out.next_best = p->name;
+    }
+  }
+  // On the truth: its own choice over its own candidates, and the chosen pattern's horns-down.
+  double truth_best = *std::max_element(chosen->truth_surface.begin(), chosen->truth_surface.end());
+  out.truth_choice = chosen_p->name;
+  double horns_down = NAN;
+  std::vector<const sw::Pattern*> on_truth = fitting(out.usable_true);
+  if (std::find(on_truth.begin(), on_truth.end(), chosen_p) == on_truth.end())
+    on_truth.push_back(chosen_p);  // sawn on the truth as chosen, fitting or not
+  for (const sw::Pattern* p : on_truth) {
+    Result<sw::OptimiseResult> own = optimise_position(t_log, *p, pr.rules, pr.prices, pr.options);
+    if (!own) return out.note = own.error().message(), out;
+    const double best = own.value().best.smoothed;
+    if (p == chosen_p) horns_down = own.value().horns_down.smoothed;
+    if (best > truth_best) truth_best = best, out.truth_choice = p->name;
+  }
+  out.chosen = chosen_p->name;
+  out.claimed = chosen->decided.gain_over_horns_down;
+  out.truth_eur = chosen->truth_at_chosen;
+  out.truth_best_eur = truth_best;
+  out.recovery = chosen->truth_at_chosen / truth_best;
+  out.realised = chosen->truth_at_chosen / horns_down - 1;
+  out.vs_two_ex = chosen->truth_at_chosen / two_ex_truth_eur - 1;
+  out.ok = true;
+  return out;
+}
+
+std::string fmt_mm(double mm) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f mm", mm);
+  return b;
+}
 
 Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int threads) {
   Row row;
@@ -261,9 +349,10 @@ Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int t
   const sw::SawLog s_log(scan), t_log(truth);
   const double usable = std::min(s_log.usable_diameter_mm(), t_log.usable_diameter_mm());
   const std::optional<bench::TwoEx> two_ex = bench::widest_two_ex(usable, scan.id);
-  if (!two_ex)
-    return row.note = "no 2ex pattern fits (usable diameter " + std::to_string(usable) + " mm)",
-           row;
+  if (!two_ex) {
+    if (pr.set) row.set = decide_from_set(scan, truth, pr, NAN);
+    return row.note = "no 2ex pattern fits (usable diameter " + fmt_mm(usable) + ")", row;
+  }
   const sw::Pattern& p = two_ex->pattern;
 
   row.bow_scan = s_log.bow().height_mm, row.bow_true = t_log.bow().height_mm;
@@ -315,6 +404,7 @@ Row run_one(const Condition& c, const std::string& src, const Pricing& pr, int t
                            pr.rules.grade_name(gt.grade) + " (" + describe(gt.limit, pr.rules) +
                            ")\n";
     }
+  if (pr.set) row.set = decide_from_set(scan, truth, pr, v.value().truth_at_chosen);
   row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   row.ok = true;
   return row;
@@ -326,13 +416,78 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
+// The second table (--pattern-set): the pattern chosen from the set, valued on the truth.
+void print_set_table(const std::vector<Row>& rows, const sw::PatternSet& set) {
+  std::printf(
+      "\n## With the pattern chosen from pattern set '%s' (as `sawyer run --pattern-set`)\n\n",
+      set.name.c_str());
+  std::printf(
+      "| # | log | usable scan / true mm | fit | chosen on the scan | next best | truth's choice | "
+      "claimed | realised | recovery | EUR on truth | vs 2ex on truth |\n");
+  std::printf("|---:|---|---:|---:|---|---|---|---:|---:|---:|---:|---:|\n");
+  std::vector<double> rec, gap, vs;
+  double gap_max = 0;
+  int every95 = 0, same_choice = 0;
+  for (const Row& r : rows) {
+    const SetRow& s = r.set;
+    if (!s.ok && s.note.empty()) continue;  // the log was not scanned (first table)
+    if (!s.ok) {
+      std::printf("| %d | %s | %.1f / %.1f | %d | | | | | | | | (%s) |\n", r.id, r.log.c_str(),
+                  s.usable_scan, s.usable_true, s.fitting, s.note.c_str());
+      continue;
+    }
+    char vs2[32] = "-";
+    if (std::isfinite(s.vs_two_ex)) std::snprintf(vs2, sizeof vs2, "%+.1f %%", 100 * s.vs_two_ex);
+    std::printf(
+        "| %d | %s | %.1f / %.1f | %d | %s | %s | %s | %+.1f %% | %+.1f %% | %.1f %% | %.2f | "
+        "%s |\n",
+        r.id, r.log.c_str(), s.usable_scan, s.usable_true, s.fitting, s.chosen.c_str(),
+        s.next_best.empty() ? "-" : s.next_best.c_str(),
+        s.truth_choice == s.chosen ? "the same" : s.truth_choice.c_str(), 100 * s.claimed,
+        100 * s.realised, 100 * s.recovery, s.truth_eur, vs2);
+    rec.push_back(s.recovery);
+    every95 += s.recovery >= 0.95;
+    same_choice += s.truth_choice == s.chosen;
+    const double d = std::abs(s.claimed - s.realised);
+    gap.push_back(d);
+    gap_max = std::max(gap_max, d);
+    if (std::isfinite(s.vs_two_ex)) vs.push_back(s.vs_two_ex);
+  }
+  std::printf(
+      "\nfit: candidates of the scanned log's class and its neighbours that fit it. recovery: the "
+      "truth's value at the chosen pattern and position over the truth's best over its own "
+      "candidates and positions. vs 2ex: the truth's value of this decision over that of the "
+      "single-2ex decision in the first table.\n");
+  if (rec.empty()) return;
+  double gap_mean = 0;
+  for (double d : gap) gap_mean += d;
+  gap_mean /= gap.size();
+  std::printf("\n| figure (pattern set) | target | measured |\n|---|---|---:|\n");
+  std::printf("| value recovery, median | >= 98 %% | %.1f %% |\n", 100 * median(rec));
+  std::printf(
+      "| value recovery, worst log | >= 95 %% on every log | %.1f %% (%d of %zu logs >= 95 %%) |\n",
+      100 * *std::min_element(rec.begin(), rec.end()), every95, rec.size());
+  std::printf("| claimed - realised gain, mean abs | <= 2 points | %.1f points |\n",
+              100 * gap_mean);
+  std::printf("| claimed - realised gain, worst log | <= 5 points | %.1f points |\n",
+              100 * gap_max);
+  std::printf("| pattern chosen on the scan = the truth's choice | | %d of %zu |\n", same_choice,
+              rec.size());
+  if (!vs.empty())
+    std::printf(
+        "| value on the truth, set over single 2ex, median (min, max) | | %+.1f %% (%+.1f, "
+        "%+.1f) |\n",
+        100 * median(vs), 100 * *std::min_element(vs.begin(), vs.end()),
+        100 * *std::max_element(vs.begin(), vs.end()));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const std::string src = SAWYER_SOURCE_DIR;
   int n_logs = 20, threads = 2, draws = 0;
   std::uint64_t seed = 21;
-  std::string grading = "nordic";
+  std::string grading = "nordic", pattern_set = "nordic";
   std::vector<int> only;
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string k = argv[a], val = argv[a + 1];
@@ -344,15 +499,18 @@ int main(int argc, char** argv) {
       threads = std::max(1, std::atoi(val.c_str()));
     else if (k == "--grading")
       grading = val;
+    else if (k == "--pattern-set")
+      pattern_set = val;
     else if (k == "--scan-draws")
       draws = std::max(0, std::atoi(val.c_str()));
     else if (k == "--only") {
       std::stringstream ss(val);
       for (std::string t; std::getline(ss, t, ',');) only.push_back(std::atoi(t.c_str()));
     } else {
-      std::fprintf(stderr,
-                   "usage: decision [--logs N] [--seed S] [--threads T] [--only I[,J...]] "
-                   "[--grading nordic|gost|FILE] [--scan-draws K]\n");
+      std::fprintf(
+          stderr,
+          "usage: decision [--logs N] [--seed S] [--threads T] [--only I[,J...]] "
+          "[--grading nordic|gost|FILE] [--scan-draws K] [--pattern-set nordic|FILE|none]\n");
       return 2;
     }
   }
@@ -367,9 +525,19 @@ int main(int argc, char** argv) {
                  (!rules ? rules.error() : prices.error()).message().c_str());
     return 1;
   }
-  Pricing pr{std::move(rules).value(), std::move(prices).value(), {}};
+  Pricing pr;
+  pr.rules = std::move(rules).value();
+  pr.prices = std::move(prices).value();
   pr.options.threads = threads;
   pr.draws = draws;
+  if (pattern_set != "none") {
+    Result<sw::PatternSet> set = sw::pattern_set_by_name(pattern_set);
+    if (!set) {
+      std::fprintf(stderr, "decision: %s\n", set.error().message().c_str());
+      return 1;
+    }
+    pr.set = std::move(set).value();
+  }
 
   std::printf("# Decision quality: positions chosen on scanned logs, valued on the true logs\n\n");
   std::printf(
@@ -468,6 +636,8 @@ int main(int argc, char** argv) {
           100 * gd / rd.size(), 100 * gd_max);
     }
   }
+
+  if (pr.set) print_set_table(rows, *pr.set);
 
   bool any = false;
   for (const Row& r : rows) {
