@@ -18,6 +18,11 @@
 // --true-stem 1 runs the knot pass on the phantom's true stem (pith, outline, heartwood) instead
 // of the scanned one, so that the knot figures measure the knot pass alone (the stem figures
 // are still the stem pass's).
+// Diagnostics (environment): SAWYER_PITH_TRACE, SAWYER_OUTER_TRACE and SAWYER_KNOT_TRACE print
+// one condition's per-slice pith, outline and spurious or missed knots (docs/scan.md);
+// SAWYER_KNOT_CSV=FILE appends a row per found knot of every scan: condition, fine (1/0), paired
+// with a true knot (1/0), largest diameter, r_end, fit RMS, support, axis and diameter RMS of the
+// fit, dark-ring shells, dead (1/0) — what a rule against spurious knots can be tried on.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -434,6 +439,21 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
       std::fprintf(stderr, "  spurious: %s\n", l.c_str());
     for (const std::string& l : m.missed) std::fprintf(stderr, "  missed: %s\n", l.c_str());
   }
+  if (const char* path = std::getenv("SAWYER_KNOT_CSV")) {  // every found knot and its fit
+    if (FILE* out = std::fopen(path, "a")) {
+      const auto& ks = sr.knots.knots;
+      for (size_t k = 0; k < ks.size(); ++k) {
+        const bool has_fit = sr.knots.fits.size() == ks.size();
+        std::fprintf(out, "%d,%d,%d,%.2f,%.1f,%.2f,%d,%.2f,%.2f,%d,%d\n", c.id, f.fine ? 1 : 0,
+                     m.found_pair[k] >= 0 ? 1 : 0, ks[k].max_diameter(), ks[k].r_end,
+                     ks[k].fit_rms_mm, ks[k].support, has_fit ? sr.knots.fits[k].axis_rms_mm : -1,
+                     has_fit ? sr.knots.fits[k].diameter_rms_mm : -1,
+                     has_fit ? sr.knots.fits[k].dark_ring_shells : -1,
+                     has_fit ? (sr.knots.fits[k].dead ? 1 : 0) : -1);
+      }
+      std::fclose(out);
+    }
+  }
   f.recall = m.recall(), f.precision = m.precision();
   f.diam_rmse = m.diameter_rmse();
   f.diam_sum2 = m.diameter_sum2, f.diam_count = m.diameter_count;
@@ -684,7 +704,7 @@ struct Done {
 void print_scans(const std::vector<Done>& done) {
   std::printf(
       "\n## Scans\n\n| # | preset | log | class | px mm | dz mm | noise | rings mm | "
-      "contrast | moisture | ecc % | pith med | pith p95 | outer RMS | heart RMS | recall | "
+      "contrast | moisture | ecc %% | pith med | pith p95 | outer RMS | heart RMS | recall | "
       "precision | found/true | diam RMSE | r_dead | r_end | flagged | s |\n"
       "|---:|---|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|"
       "---:|---:|---:|---:|---|---:|\n");

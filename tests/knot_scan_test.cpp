@@ -4,6 +4,7 @@
 // bench/knot_bench measures on longer sections and more logs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -64,6 +65,9 @@ TEST(KnotScan, CommandLineScanFindsThePhantomsKnots) {
       median_of(m.height_mm), m.diameter_rmse(), median_of(m.r_dead_mm), m.r_dead_mm.size(),
       median_of(m.r_end_mm));
   print_unmatched(m);
+  // The pairing per found knot agrees with the counts (bench/robustness's knot rows read it).
+  ASSERT_EQ(m.found_pair.size(), found.value().knots.size());
+  EXPECT_EQ(std::count(m.found_pair.begin(), m.found_pair.end(), -1), m.spurious);
   ASSERT_GE(m.truth_counted, 4) << "the section should hold whorls";
   EXPECT_GE(m.recall(), 0.9);
   EXPECT_GE(m.precision(), 0.85);
@@ -178,7 +182,9 @@ void expect_the_same_knots_and_view(const ScanResult& kept, const ScanResult& st
     EXPECT_NEAR(angle_diff(a[i].azimuth_at(40), b[i].azimuth_at(40)), 0.0, 0.01)
         << "knot " << a[i].id;
     EXPECT_NEAR(a[i].r_end, b[i].r_end, 1.0) << "knot " << a[i].id;
-    if (diameters) EXPECT_NEAR(a[i].max_diameter(), b[i].max_diameter(), 0.5) << "knot " << a[i].id;
+    if (diameters) {
+      EXPECT_NEAR(a[i].max_diameter(), b[i].max_diameter(), 0.5) << "knot " << a[i].id;
+    }
   }
   // The unrolled views inside the log: the same voxels, whether kept or read again.
   const UnrolledView& va = kept.unrolled.front();

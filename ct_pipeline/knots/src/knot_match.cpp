@@ -61,6 +61,7 @@ KnotMatch match_knots(const std::vector<Knot>& found, const std::vector<Knot>& t
   for (const Pair& q : pairs)
     if (of_truth[q.t] < 0 && of_found[q.f] < 0)
       of_truth[q.t] = static_cast<int>(q.f), of_found[q.f] = static_cast<int>(q.t);
+  m.found_pair = of_found;
 
   for (size_t t = 0; t < truth.size(); ++t) {
     const Knot& k = truth[t];

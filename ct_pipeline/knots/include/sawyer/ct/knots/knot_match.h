@@ -34,6 +34,7 @@ struct KnotMatch {
   long diameter_count = 0;
   std::vector<std::string> missed, spurious_list;  // one line each
   std::vector<std::string> pairs;  // each pair's diameters, r_dead and r_end, true and found
+  std::vector<int> found_pair;     // per found knot: the index of its true knot, -1 spurious
   double recall() const { return truth_counted ? double(truth_found) / truth_counted : 1.0; }
   double precision() const { return found ? double(found - spurious) / found : 1.0; }
   double diameter_rmse() const;
