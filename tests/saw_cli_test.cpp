@@ -122,7 +122,7 @@ TEST(SawCli, SaysWhetherHornsDownIsFromTheBowOrAConvention) {
   EXPECT_NE(out.find("horns-down from an arc bow of 12.7 mm"), std::string::npos) << out;
 }
 
-// --pattern-set: the bundled Nordic set on the 4 m spruce (usable diameter 202 mm, class
+// --pattern-set: the bundled Nordic set on the 4 m spruce (usable diameter 203.5 mm, class
 // 195-225 mm): every candidate of its class and the neighbours listed, those too large for it
 // not sawn, the chosen and the next best in the summary and in sawing.json.
 TEST(SawCli, APatternSetChoosesThePatternForTheLog) {

@@ -198,9 +198,29 @@ TEST(Sawing, PatternTooBigForTheLogIsRefusedNamingTheUsableDiameter) {
   EXPECT_TRUE(check_pattern_fits(p, 200.0, log.id).ok());
 }
 
+// The top end (the thinner end, here the last): the median over the samples within 20 mm of it
+// (z 2975, 2985, 2995 at 10 mm samples), within the taper's 0.4 mm of the very end.
 TEST(Sawing, UsableDiameterIsTheTopEnd) {
   const LogModel log = test::synthetic_log(3000.0, [](double z) { return 150.0 - 0.02 * z; });
-  EXPECT_NEAR(SawLog(log).usable_diameter_mm(), 2 * (150.0 - 0.02 * 2995.0), 1e-9);
+  EXPECT_NEAR(SawLog(log).usable_diameter_mm(), 2 * (150.0 - 0.02 * 2985.0), 1e-9);
+  // Turned end for end: the top end is the first sample now.
+  const LogModel flipped = test::synthetic_log(3000.0, [](double z) { return 90.0 + 0.02 * z; });
+  EXPECT_NEAR(SawLog(flipped).usable_diameter_mm(), 2 * (90.0 + 0.02 * 15.0), 1e-9);
+}
+
+// A scan's last slice is its least certain: one slice whose outline came out 5 mm small on one
+// side (a half-covered end) does not take 10 mm off the diameter a pattern must fit, and the
+// pattern class with it (bench/decision's pine_s21216 lost a fifth of its value that way).
+TEST(Sawing, OneBadEndSliceDoesNotSetTheUsableDiameter) {
+  LogModel log = test::synthetic_log(3000.0, [](double z) { return 150.0 - 0.02 * z; });
+  const double before = SawLog(log).usable_diameter_mm();
+  std::vector<double>& end = log.stem.radius.back();
+  for (size_t a = 80; a < 100; ++a) end[a] -= 5.0;
+  EXPECT_NEAR(SawLog(log).usable_diameter_mm(), before, 1e-9);
+  // Two of the three samples small: then the end is small.
+  std::vector<double>& next = log.stem.radius[log.stem.radius.size() - 2];
+  for (size_t a = 80; a < 100; ++a) next[a] -= 5.0;
+  EXPECT_LT(SawLog(log).usable_diameter_mm(), before - 9.0);
 }
 
 TEST(Sawing, PatternFileRoundTrip) {

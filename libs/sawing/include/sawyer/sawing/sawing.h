@@ -105,7 +105,8 @@ class SawLog {
   // The turn φ of LogPosition{} (rad): 270° − the horns' azimuth, or the ScannerPosition's turn.
   double turn_at_zero() const { return turn0_; }
   // Diameter of the largest circle about the pith inscribed in the top end (the end with the
-  // smaller mean radius), under bark, mm.
+  // smaller mean radius), under bark, mm: the median over the stem samples within 20 mm of that
+  // end (a scan's very last slice is its least certain).
   double usable_diameter_mm() const { return usable_diameter_mm_; }
   // The centre line at model height z (scanner x, y): the mean pith line, or the pattern-centre
   // line of the ScannerPosition the log was built on.
