@@ -214,7 +214,7 @@ void SawLog::build(int knot_samples) {
       if (k > 0 && std::abs(stem.z_at(i) - stem.z_at(top)) > kTopEndMm) break;
       const std::vector<double>& rad = stem.radius[i];
       const double rmin = rad.empty() ? 0.0 : *std::min_element(rad.begin(), rad.end());
-      const double off = (stem.pith[i] - line_at(stem.z_at(i))).norm();
+      const double off = (stem.pith[i] - line_at_slice_[i]).norm();
       per.push_back(2.0 * (rmin - off));
     }
     std::sort(per.begin(), per.end());
