@@ -442,8 +442,8 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
   if (const char* path = std::getenv("SAWYER_KNOT_CSV")) {  // every found knot and its fit
     if (FILE* out = std::fopen(path, "a")) {
       const auto& ks = sr.knots.knots;
+      const bool has_fit = sr.knots.fits.size() == ks.size();
       for (size_t k = 0; k < ks.size(); ++k) {
-        const bool has_fit = sr.knots.fits.size() == ks.size();
         std::fprintf(out, "%d,%d,%d,%.2f,%.1f,%.2f,%d,%.2f,%.2f,%d,%d\n", c.id, f.fine ? 1 : 0,
                      m.found_pair[k] >= 0 ? 1 : 0, ks[k].max_diameter(), ks[k].r_end,
                      ks[k].fit_rms_mm, ks[k].support, has_fit ? sr.knots.fits[k].axis_rms_mm : -1,
