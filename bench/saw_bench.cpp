@@ -13,8 +13,10 @@
 // --report 1 also prints the 2ex boards at rotation 0 (horns down) with their knots.
 // --dump writes, for gran1 and two generated logs (pine seed 5, spruce seed 9) and the bundled
 // 2ex, 4ex and tt patterns, the boards, grades and values (nordic rules, example prices) at 200
-// pseudo-random positions each, every number in full precision: a fixture to compare sawing
-// before and after a change (e.g. scripts or diff), no timing.
+// pseudo-random positions each, then 44 positions in the optimiser's order (4 rotations, each at
+// offsets x −10..10 mm step 2, the order saw()'s per-rotation caches see), every number in full
+// precision: a fixture to compare sawing before and after a change (e.g. scripts or diff), no
+// timing.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -65,9 +67,11 @@ int dump(const LogModel& gran1, const char* out_path) {
         z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
         return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
       };
-      for (int k = 0; k < 200; ++k) {
+      for (int k = 0; k < 200 + 44; ++k) {
         sawing::LogPosition pos{360 * uni(), -12 + 24 * uni(), k % 4 == 0 ? -5 + 10 * uni() : 0.0};
         if (k < 4) pos = {90.0 * k, 0, 0};
+        // The optimiser's order: one rotation at every offset, then the next rotation.
+        if (k >= 200) pos = {17.0 + 83.0 * ((k - 200) / 11), -10.0 + 2.0 * ((k - 200) % 11), 0};
         const SawResult r = saw(sl, p, pos);
         const LogValue v = value_of(r, rules, prices);
         std::fprintf(f, "pos %s %s %.17g %.17g %.17g boards %zu dropped %zu value %.17g\n",
