@@ -308,10 +308,15 @@ void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules,
 }
 
 // slice_wane(...).ok without computing the wane where the limits decide earlier: the same corner
-// tests, then each side in turn (side_ok), stopping at the first that fails.
-bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, int i) {
+// tests, then each side in turn (side_ok), stopping at the first that fails. *no_wane is set
+// when the answer came from the tests by which slice_wane returns no wane at all (the section
+// surely inside, or all four corners inside), so that slice_wane need not run again there.
+bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, int i,
+              bool* no_wane) {
+  *no_wane = false;
   const double hu = sec.ta == 0 ? sec.ht : sec.hw, hv = sec.ta == 0 ? sec.hw : sec.ht;
-  if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv)) return true;
+  if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv))
+    return *no_wane = true;
   const double ca[4] = {sec.ht, sec.ht, -sec.ht, -sec.ht};
   const double cb[4] = {-sec.hw, sec.hw, sec.hw, -sec.hw};
   double cu[4], cv[4];
@@ -320,7 +325,7 @@ bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, i
     sec.point(ca[k], cb[k], &cu[k], &cv[k]);
     in[k] = pl.inside(i, cu[k], cv[k]);
   }
-  if (in[0] && in[1] && in[2] && in[3]) return true;
+  if (in[0] && in[1] && in[2] && in[3]) return *no_wane = true;
   const double w = 2 * sec.hw, t = 2 * sec.ht;
   const double fl = rules.max_face_fraction * w, el = rules.max_edge_fraction * t;
   // Sides as corner pairs (face+ 0→1, face− 3→2, edge+ 2→1, edge− 3→0). Every side must pass,
@@ -340,20 +345,32 @@ bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, i
 
 // Longest run of acceptable samples, trimmed to the length step and centred in the run.
 // Returns false when nothing of at least the minimum length is left.
-// `ok(i)` says whether sample i (of n) is acceptable.
+// `ok(i)` says whether sample i (of n) is acceptable. Runs shorter than min_run samples are of
+// no use to the caller: they are not looked for, and when there is no longer one the answer may
+// be any run or none. Otherwise it is the first longest run, as a scan from sample 0 finds it.
+// Only a run longer than the best so far (and than min_run) can change the answer, and such a
+// run holds the sample that many places on from where it could start: that sample is asked
+// first, and only a run through it is followed out (ok() may be costly: edging's lazy
+// bisection).
 template <class Ok>
-bool trim(const Stem& stem, int n, Ok&& ok, const WaneRules& rules, double* zb, double* ze) {
-  int best0 = 0, best_n = 0, run0 = 0, run_n = 0;
-  for (int i = 0; i < n; ++i) {
-    if (ok(i)) {
-      if (run_n == 0) run0 = i;
-      if (++run_n > best_n) {
-        best_n = run_n;
-        best0 = run0;
-      }
-    } else {
-      run_n = 0;
+bool trim(const Stem& stem, int n, Ok&& ok, const WaneRules& rules, int min_run, double* zb,
+          double* ze) {
+  int best0 = 0, best_n = 0;
+  for (int i = 0; i < n;) {  // runs start at i or later (sample i − 1 is not acceptable)
+    const int j = i + std::max(min_run, best_n + 1) - 1;
+    if (j >= n) break;
+    if (!ok(j)) {
+      i = j + 1;
+      continue;
     }
+    int s = j, e = j;
+    while (s > i && ok(s - 1)) --s;
+    while (e + 1 < n && ok(e + 1)) ++e;
+    if (e - s + 1 > best_n && e - s + 1 >= min_run) {
+      best_n = e - s + 1;
+      best0 = s;
+    }
+    i = e + 2;
   }
   if (best_n == 0) return false;
   const double run = best_n * stem.dz_mm;
@@ -464,7 +481,9 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
   thread_local std::vector<char> ok;
   thread_local std::vector<SliceWane> sw;
   thread_local std::vector<double> widths;
-  thread_local std::vector<int> widest;
+  thread_local std::vector<std::array<int, 2>> bracket;  // edging's bisection per stem sample
+  // Per stem sample, bit j: slice_ok at widths[j] found no wane at all (edged boards).
+  thread_local std::vector<std::uint64_t> clear;
   std::vector<int> crossed(log.knots().size(), -1);
   const int n = stem.slice_count();
   for (size_t bi = 0; bi < pattern.boards.size(); ++bi) {
@@ -479,6 +498,7 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
     if (widths.empty()) widths.push_back(spec.width_mm);
     std::sort(widths.begin(), widths.end());
     double best_value = 0, best_w = 0, best_zb = 0, best_ze = 0;
+    int best_k = -1;  // edged boards: index of best_w in widths
     // Only whether each stem sample keeps to the wane rules is needed to trim and edge
     // (slice_ok); the wane itself is computed below for the samples of the trimmed board only.
     bool have_sw = false;
@@ -495,32 +515,72 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
       }
       have_sw = true;
       const auto acceptable = [&](int i) { return ok[i] != 0; };
-      if (trim(stem, n, acceptable, pattern.wane, &best_zb, &best_ze))
+      if (trim(stem, n, acceptable, pattern.wane, 1, &best_zb, &best_ze))
         best_value = best_w * (best_ze - best_zb);
     } else {
       // Edging: at each stem sample the widest acceptable width, by bisection over the sorted
       // widths (acceptance shrinks as the width grows on a convex outline); then the width whose
       // trimmed board holds the most wood.
+      // The bisection runs lazily: the widths are tried from the widest down and stop as soon as
+      // a narrower one cannot hold more wood, so a sample's bisection is carried on only until
+      // it tells whether its widest acceptable width reaches the one being tried. Its steps are
+      // those of the full bisection, in the same order, so every answer is the one the full
+      // bisection gives (the outline need not be convex for that); only steps no width asks
+      // about are left out. A section surely inside at the widest width (rect_surely_inside,
+      // monotone in the width) passes every step: its bracket is set at once.
       const int m = static_cast<int>(widths.size());
-      widest.assign(n, -1);
-      for (int i = 0; i < n; ++i) {
-        int lo = -1, hi = m;  // widths[lo] acceptable (or none), widths[hi] not
-        while (hi - lo > 1) {
-          const int mid = (lo + hi) / 2;
-          sec.hw = 0.5 * widths[mid];
-          (slice_ok(pl, sec, pattern.wane, i) ? lo : hi) = mid;
+      bracket.resize(n);
+      clear.assign(n, 0);
+      {
+        const double hu = sec.ta == 0 ? sec.ht : 0.5 * widths[m - 1];
+        const double hv = sec.ta == 0 ? 0.5 * widths[m - 1] : sec.ht;
+        for (int i = 0; i < n; ++i) {
+          // widths[lo] acceptable (or none), widths[hi] not: the answer lies in [lo, hi − 1].
+          bracket[i] = {-1, m};
+          if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv)) {
+            bracket[i] = {m - 1, m};
+            clear[i] = ~std::uint64_t{0};
+          }
         }
-        widest[i] = lo;
       }
+      const auto wide_enough_at = [&](int i, int k) {
+        std::array<int, 2>& b = bracket[i];
+        while (b[0] < k && b[1] > k) {
+          const int mid = (b[0] + b[1]) / 2;
+          sec.hw = 0.5 * widths[mid];
+          bool no_wane;
+          (slice_ok(pl, sec, pattern.wane, i, &no_wane) ? b[0] : b[1]) = mid;
+          if (no_wane && mid < 64) clear[i] |= std::uint64_t{1} << mid;
+        }
+        return b[0] >= k;
+      };
       for (int k = m - 1; k >= 0; --k) {
         const double w = widths[k];
         if (w * stem.length_mm() <= best_value) break;
+        // Runs too short to give more wood than the best so far (or than the minimum length)
+        // need not be found: the shortest that might (a little short of it, for rounding),
+        // by bisection on the run length (the trimmed length grows with it).
+        const auto might_do = [&](int run) {
+          const double mm = run * stem.dz_mm;
+          const double len = pattern.wane.length_step_mm > 0
+                                 ? std::floor(mm / pattern.wane.length_step_mm + 1e-9) *
+                                       pattern.wane.length_step_mm
+                                 : mm;
+          return len > 0 && len >= pattern.wane.min_length_mm && w * len * (1 + 1e-9) > best_value;
+        };
+        if (!might_do(n)) continue;
+        int lo = 0, hi = n;  // might_do(hi), not lo
+        while (hi - lo > 1) {
+          const int mid = (lo + hi) / 2;
+          (might_do(mid) ? hi : lo) = mid;
+        }
         double zb, ze;
-        const auto wide_enough = [&](int i) { return widest[i] >= k; };
-        if (!trim(stem, n, wide_enough, pattern.wane, &zb, &ze)) continue;
+        const auto wide_enough = [&](int i) { return wide_enough_at(i, k); };
+        if (!trim(stem, n, wide_enough, pattern.wane, hi, &zb, &ze)) continue;
         if (w * (ze - zb) > best_value) {
           best_value = w * (ze - zb);
           best_w = w;
+          best_k = k;
           best_zb = zb;
           best_ze = ze;
         }
@@ -557,6 +617,8 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
       SliceWane here;
       if (have_sw)
         here = sw[i];
+      else if (best_k >= 0 && best_k < 64 && (clear[i] >> best_k & 1))
+        here = SliceWane{{0, 0, 0, 0}, 0, true};  // what slice_wane returns there
       else
         slice_wane(pl, sec, pattern.wane, i, &here);
       missing += here.area * ov;
