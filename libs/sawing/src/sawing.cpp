@@ -363,13 +363,23 @@ bool trim(const Stem& stem, int n, Ok&& ok, const WaneRules& rules, int min_run,
       i = j + 1;
       continue;
     }
-    int s = j, e = j;
+    int s = j;
     while (s > i && ok(s - 1)) --s;
-    while (e + 1 < n && ok(e + 1)) ++e;
-    if (e - s + 1 > best_n && e - s + 1 >= min_run) {
-      best_n = e - s + 1;
-      best0 = s;
+    // The run from s must reach e to matter; if a sample between j and e is not acceptable
+    // (looked for from e down), the run ends before it and no run that matters starts before
+    // it either.
+    const int need = std::max(min_run, best_n + 1);
+    int e = s + need - 1;
+    if (e >= n) break;
+    int f = e;
+    while (f > j && ok(f)) --f;
+    if (f > j) {
+      i = f + 1;
+      continue;
     }
+    while (e + 1 < n && ok(e + 1)) ++e;
+    best_n = e - s + 1;
+    best0 = s;
     i = e + 2;
   }
   if (best_n == 0) return false;
@@ -484,6 +494,9 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
   thread_local std::vector<std::array<int, 2>> bracket;  // edging's bisection per stem sample
   // Per stem sample, bit j: slice_ok at widths[j] found no wane at all (edged boards).
   thread_local std::vector<std::uint64_t> clear;
+  // Per board of the last pattern sawn on this thread, the width it got (0: none).
+  thread_local std::vector<double> last_w;
+  last_w.resize(std::max(last_w.size(), pattern.boards.size()), 0.0);
   std::vector<int> crossed(log.knots().size(), -1);
   const int n = stem.slice_count();
   for (size_t bi = 0; bi < pattern.boards.size(); ++bi) {
@@ -554,21 +567,30 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         }
         return b[0] >= k;
       };
-      for (int k = m - 1; k >= 0; --k) {
+      // The width this board got at the thread's last position is tried first (the optimiser's
+      // next position is usually the same rotation at the next offset): when it is the one
+      // chosen again, the runs the other widths need to beat it are long, and they are refused
+      // after a few tests. The choice is the one of trying the widths from the widest down and
+      // keeping a strictly larger volume: the largest volume, the widest of equal ones.
+      const int guess =
+          static_cast<int>(std::find(widths.begin(), widths.end(), last_w[bi]) - widths.begin());
+      const auto try_width = [&](int k) {
         const double w = widths[k];
-        if (w * stem.length_mm() <= best_value) break;
-        // Runs too short to give more wood than the best so far (or than the minimum length)
-        // need not be found: the shortest that might (a little short of it, for rounding),
-        // by bisection on the run length (the trimmed length grows with it).
+        const bool wider = k > best_k;  // a wider width wins a tie
+        // Runs too short to give as much wood as the best so far (or to reach the minimum
+        // length) need not be found: the shortest that might (a little short of it, for
+        // rounding), by bisection on the run length (the trimmed length grows with it).
         const auto might_do = [&](int run) {
           const double mm = run * stem.dz_mm;
           const double len = pattern.wane.length_step_mm > 0
                                  ? std::floor(mm / pattern.wane.length_step_mm + 1e-9) *
                                        pattern.wane.length_step_mm
                                  : mm;
-          return len > 0 && len >= pattern.wane.min_length_mm && w * len * (1 + 1e-9) > best_value;
+          const double v = w * len * (1 + 1e-9);
+          return len > 0 && len >= pattern.wane.min_length_mm &&
+                 (wider ? v >= best_value : v > best_value);
         };
-        if (!might_do(n)) continue;
+        if (!might_do(n)) return;
         int lo = 0, hi = n;  // might_do(hi), not lo
         while (hi - lo > 1) {
           const int mid = (lo + hi) / 2;
@@ -576,16 +598,24 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         }
         double zb, ze;
         const auto wide_enough = [&](int i) { return wide_enough_at(i, k); };
-        if (!trim(stem, n, wide_enough, pattern.wane, hi, &zb, &ze)) continue;
-        if (w * (ze - zb) > best_value) {
-          best_value = w * (ze - zb);
+        if (!trim(stem, n, wide_enough, pattern.wane, hi, &zb, &ze)) return;
+        const double v = w * (ze - zb);
+        if (v > best_value || (wider && v == best_value)) {
+          best_value = v;
           best_w = w;
           best_k = k;
           best_zb = zb;
           best_ze = ze;
         }
+      };
+      if (guess < m) try_width(guess);
+      for (int k = m - 1; k >= 0; --k) {
+        if (k == guess) continue;
+        if (k < best_k && widths[k] * stem.length_mm() <= best_value) break;
+        try_width(k);
       }
     }
+    last_w[bi] = best_value > 0 ? best_w : 0.0;
     if (best_value <= 0) {
       res.dropped.push_back(
           {static_cast<int>(bi), "no length of at least " +
