@@ -270,9 +270,10 @@ struct SliceWane {
   bool ok;
 };
 
-// Wane of a section at stem sample i.
+// Wane of a section at stem sample i. `corners`, when ≥ 0, holds in its bits 0–3 what inside()
+// answers at the four corners (slice_ok looked them up at this section and sample).
 void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules, int i,
-                SliceWane* out) {
+                SliceWane* out, int corners = -1) {
   const double hu = sec.ta == 0 ? sec.ht : sec.hw, hv = sec.ta == 0 ? sec.hw : sec.ht;
   if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv)) {
     *out = SliceWane{{0, 0, 0, 0}, 0, true};
@@ -285,7 +286,7 @@ void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules,
   bool in[4];
   for (int k = 0; k < 4; ++k) {
     sec.point(ca[k], cb[k], &cu[k], &cv[k]);
-    in[k] = pl.inside(i, cu[k], cv[k]);
+    in[k] = corners >= 0 ? (corners >> k & 1) != 0 : pl.inside(i, cu[k], cv[k]);
   }
   const double w = 2 * sec.hw, t = 2 * sec.ht;
   SliceWane& sw = *out;
@@ -310,10 +311,12 @@ void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules,
 // slice_wane(...).ok without computing the wane where the limits decide earlier: the same corner
 // tests, then each side in turn (side_ok), stopping at the first that fails. *no_wane is set
 // when the answer came from the tests by which slice_wane returns no wane at all (the section
-// surely inside, or all four corners inside), so that slice_wane need not run again there.
-bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, int i,
-              bool* no_wane) {
+// surely inside, or all four corners inside), so that slice_wane need not run again there;
+// *corners to the corners' inside() answers (bits 0–3) when it looked them up, else −1.
+bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, int i, bool* no_wane,
+              int* corners) {
   *no_wane = false;
+  *corners = -1;
   const double hu = sec.ta == 0 ? sec.ht : sec.hw, hv = sec.ta == 0 ? sec.hw : sec.ht;
   if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv))
     return *no_wane = true;
@@ -325,6 +328,7 @@ bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, i
     sec.point(ca[k], cb[k], &cu[k], &cv[k]);
     in[k] = pl.inside(i, cu[k], cv[k]);
   }
+  *corners = in[0] | in[1] << 1 | in[2] << 2 | in[3] << 3;
   if (in[0] && in[1] && in[2] && in[3]) return *no_wane = true;
   const double w = 2 * sec.hw, t = 2 * sec.ht;
   const double fl = rules.max_face_fraction * w, el = rules.max_edge_fraction * t;
@@ -494,6 +498,9 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
   thread_local std::vector<std::array<int, 2>> bracket;  // edging's bisection per stem sample
   // Per stem sample, bit j: slice_ok at widths[j] found no wane at all (edged boards).
   thread_local std::vector<std::uint64_t> clear;
+  // Per stem sample, 5 bits per width index j < 12: slice_ok at widths[j] looked up the corners
+  // (bit 4) and what inside() answered there (bits 0–3), for the trimmed board's wane.
+  thread_local std::vector<std::uint64_t> corner_bits;
   // Per board of the last pattern sawn on this thread, the width it got (0: none).
   thread_local std::vector<double> last_w;
   last_w.resize(std::max(last_w.size(), pattern.boards.size()), 0.0);
@@ -544,6 +551,7 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
       const int m = static_cast<int>(widths.size());
       bracket.resize(n);
       clear.assign(n, 0);
+      corner_bits.assign(n, 0);
       {
         const double hu = sec.ta == 0 ? sec.ht : 0.5 * widths[m - 1];
         const double hv = sec.ta == 0 ? 0.5 * widths[m - 1] : sec.ht;
@@ -562,8 +570,11 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
           const int mid = (b[0] + b[1]) / 2;
           sec.hw = 0.5 * widths[mid];
           bool no_wane;
-          (slice_ok(pl, sec, pattern.wane, i, &no_wane) ? b[0] : b[1]) = mid;
+          int corners;
+          (slice_ok(pl, sec, pattern.wane, i, &no_wane, &corners) ? b[0] : b[1]) = mid;
           if (no_wane && mid < 64) clear[i] |= std::uint64_t{1} << mid;
+          if (corners >= 0 && mid < 12)
+            corner_bits[i] |= static_cast<std::uint64_t>(corners | 16) << 5 * mid;
         }
         return b[0] >= k;
       };
@@ -649,8 +660,11 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         here = sw[i];
       else if (best_k >= 0 && best_k < 64 && (clear[i] >> best_k & 1))
         here = SliceWane{{0, 0, 0, 0}, 0, true};  // what slice_wane returns there
-      else
-        slice_wane(pl, sec, pattern.wane, i, &here);
+      else {
+        const int cb =
+            best_k >= 0 && best_k < 12 ? static_cast<int>(corner_bits[i] >> 5 * best_k & 31) : 0;
+        slice_wane(pl, sec, pattern.wane, i, &here, cb & 16 ? cb & 15 : -1);
+      }
       missing += here.area * ov;
       BoardSlab slab{s0, s1, {}, static_cast<float>(here.area)};
       for (int k = 0; k < 4; ++k) {
