@@ -541,13 +541,13 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
       // Edging: at each stem sample the widest acceptable width, by bisection over the sorted
       // widths (acceptance shrinks as the width grows on a convex outline); then the width whose
       // trimmed board holds the most wood.
-      // The bisection runs lazily: the widths are tried from the widest down and stop as soon as
-      // a narrower one cannot hold more wood, so a sample's bisection is carried on only until
-      // it tells whether its widest acceptable width reaches the one being tried. Its steps are
-      // those of the full bisection, in the same order, so every answer is the one the full
-      // bisection gives (the outline need not be convex for that); only steps no width asks
-      // about are left out. A section surely inside at the widest width (rect_surely_inside,
-      // monotone in the width) passes every step: its bracket is set at once.
+      // The bisection runs lazily: a sample's bisection is carried on only until it tells
+      // whether its widest acceptable width reaches the width being trimmed, and only for the
+      // samples trim() asks about. Its steps are those of the full bisection, in the same order,
+      // so every answer is the one the full bisection gives (the outline need not be convex for
+      // that); only steps no width asks about are left out. A section surely inside at the
+      // widest width (rect_surely_inside, monotone in the width) passes every step: its bracket
+      // is set at once.
       const int m = static_cast<int>(widths.size());
       bracket.resize(n);
       clear.assign(n, 0);
