@@ -192,6 +192,8 @@ struct Figures {
   double diam_sum2 = 0;
   long diam_count = 0;
   std::vector<double> r_dead_errors;
+  // Per found knot: its confidence (Knot::confidence) and whether it paired with a true knot.
+  std::vector<std::pair<double, bool>> knot_confidence;
   std::optional<bool> flagged;  // the scan's own QA verdict failed (ct::assess_scan)
   std::string qa_warnings;      // its warnings, joined
   // The figures it rests on (ScanQaDetail), for --qa-csv.
@@ -428,6 +430,8 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
   const KnotMatch m = match_knots(sr.knots.knots, truth.knots, truth.stem, mo);
   f.truth_big = m.truth_counted, f.found_big = m.truth_found;
   f.found = m.found, f.spurious = m.spurious;
+  for (size_t k = 0; k < sr.knots.knots.size() && k < m.found_pair.size(); ++k)
+    f.knot_confidence.push_back({sr.knots.knots[k].confidence(), m.found_pair[k] >= 0});
   if (std::getenv("SAWYER_KNOT_TRACE")) {  // each spurious and missed knot, for one condition
     for (const auto& st : ph->streaks())
       std::fprintf(stderr, "  streaks at (%.0f, %.0f) mm, z %.0f-%.0f mm, %zu lines\n", st.centre.x,
@@ -802,6 +806,24 @@ void print_pass_rates(const std::vector<Done>& done) {
       rd.size(), fmt("%.1f %%", tb[1] ? 100.0 * fb[1] / tb[1] : NAN).c_str(), fb[1], tb[1],
       fmt("%.1f %%", nf[1] ? 100.0 * (nf[1] - ns[1]) / nf[1] : NAN).c_str(), nf[1] - ns[1], nf[1],
       errors, excluded);
+
+  // Knot::confidence against the truth: in each band of confidence, the share of found knots
+  // that paired with a true knot (the confidence is meant as that chance).
+  std::printf(
+      "\nKnot confidence (Knot::confidence) against the truth, found knots of every scan:\n\n"
+      "| confidence | knots | mean confidence | real (paired with a true knot) |\n"
+      "|---|---:|---:|---:|\n");
+  const double edges[] = {0.0, 0.5, 0.8, 0.95, 1.0001};
+  for (int b = 0; b < 4; ++b) {
+    int n = 0, real = 0;
+    double sum = 0;
+    for (const Done& d : done)
+      for (const auto& [c, paired] : d.f.knot_confidence)
+        if (c >= edges[b] && c < edges[b + 1]) ++n, real += paired, sum += c;
+    std::printf("| %.2f-%.2f | %d | %s | %s |\n", edges[b], std::min(edges[b + 1], 1.0), n,
+                fmt("%.2f", n ? sum / n : NAN).c_str(),
+                fmt("%.2f", n ? static_cast<double>(real) / n : NAN).c_str());
+  }
 }
 
 void print_failures(const std::vector<Done>& done, const std::vector<LogModel>& logs_of) {

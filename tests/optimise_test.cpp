@@ -230,6 +230,27 @@ TEST(Optimise, AKnotAtAGradeLimitChangesTheChoiceOnlyWhenItsUncertaintySaysItMay
   EXPECT_EQ(draw_model(near, sn, 0, 5).knots[1].diameter.d_dead, d0.knots[1].diameter.d_dead);
   EXPECT_NEAR(d0.knots[1].diameter.d_dead + d1.knots[1].diameter.d_dead,
               2 * near.knots[1].diameter.d_dead, 1e-9);
+  // A knot whose fit says it may not be a knot at all is left out of a share of the draws, as
+  // its confidence says (a pair's draws at u and 1 - u); a confident one almost never.
+  LogModel doubtful = near;
+  doubtful.knots[0].fit_rms_mm = 2.3;  // ragged axis, little support: a streak, maybe
+  doubtful.knots[0].support = 21;
+  doubtful.knots[1].fit_rms_mm = 0.4;
+  doubtful.knots[1].support = 120;
+  const double c0 = doubtful.knots[0].confidence(), c1 = doubtful.knots[1].confidence();
+  ASSERT_LT(c0, 0.8);
+  ASSERT_GT(c1, 0.95);
+  const ScanSpread sd = scan_spread(doubtful);
+  EXPECT_EQ(sd.knots[0].real_p, c0);
+  int kept0 = 0, kept1 = 0;
+  constexpr int kDraws = 400;
+  for (int k = 0; k < kDraws; ++k) {
+    const LogModel m = draw_model(doubtful, sd, k, 11);
+    for (const Knot& q : m.knots) (q.id == doubtful.knots[0].id ? kept0 : kept1) += 1;
+  }
+  EXPECT_NEAR(static_cast<double>(kept0) / kDraws, c0, 0.08);
+  EXPECT_GE(kept1, static_cast<int>(0.93 * kDraws));
+  EXPECT_EQ(draw_model(exact, scan_spread(exact), 3, 11).knots.size(), exact.knots.size());
   o.model_draws = 65;
   EXPECT_FALSE(o.validate(p).ok());
   // Draws multiply the sawings: 64 draws of a 90 × 201 grid (1.18 M sawings) are refused.

@@ -480,6 +480,21 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                   knots->knots.size(), knots->knots.size() / std::max(1e-3, measured * dz * 1e-3),
                   knots->rejected.size());
     st.notes.push_back(line);
+    if (!knots->knots.empty()) {
+      // Knot::confidence: the chance each is a real knot, from its fit.
+      double expected_real = 0;
+      int doubtful = 0;
+      for (const Knot& k : knots->knots) {
+        const double c = k.confidence();
+        expected_real += c;
+        doubtful += c < 0.5;
+      }
+      std::snprintf(line, sizeof line,
+                    "knot confidence: %d of %zu below 50 %%; about %.0f of them real (the sum of "
+                    "the confidences)",
+                    doubtful, knots->knots.size(), expected_real);
+      st.notes.push_back(line);
+    }
     if (knots->rejected_as_rings > 0) {
       std::snprintf(line, sizeof line,
                     "%d knot candidates rejected as rings (sheets %d, arcs %d); ring signal %.0f "

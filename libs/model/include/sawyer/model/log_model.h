@@ -103,6 +103,11 @@ struct Knot {
   bool has_dead_part() const { return r_dead < r_end; }
   // Largest diameter over the knot's length.
   double max_diameter() const { return diameter_at(std::min(r_dead, r_end)); }
+  // The chance (0..1) that a knot the CT pipeline fitted is a real knot and not something else
+  // taken for one (a streak, a pocket, a ring fragment), from its fit (axis RMS, support, length,
+  // diameter); 1 for a knot that was not fitted (support 0: a measured or generated log).
+  // See knot_confidence in log_model.cpp for where the figures come from.
+  double confidence() const;
 
   // Axis point at pith distance r (mm), using the stem's pith at the axis height.
   Vec3 axis_point(double r, const Stem& stem) const;

@@ -11,7 +11,9 @@
 // error 14 mm). A draw moves each knot's d_dead and r_dead by Gaussian errors of those sizes, so
 // a knot near a grade's size limit, or near the grading's minimum size, is sometimes over it and
 // sometimes under, as the scan may be. A model whose scan QA failed (pith or knots) gets twice
-// the spread. A model that did not come from a scan has none.
+// the spread. A knot may also not be a knot at all (a streak or a pocket taken for one): a draw
+// leaves it out with the chance Knot::confidence gives it of being so. A model that did not come
+// from a scan has none of this.
 //
 // Thread safety: plain values; the free functions are reentrant.
 #pragma once
@@ -32,6 +34,7 @@ inline constexpr double kKnotRDeadSdMm = 12.0;
 struct KnotSpread {
   double diameter_sd_mm = 0;  // of d_dead
   double r_dead_sd_mm = 0;
+  double real_p = 1;  // the chance the knot is real (Knot::confidence): a draw leaves it out else
 };
 
 struct ScanSpread {
@@ -44,8 +47,10 @@ struct ScanSpread {
 ScanSpread scan_spread(const LogModel& model);
 
 // Draw `k` (0, 1, ...) of the model under `spread`: every knot's d_dead and r_dead moved by
-// N(0, σ) (d_dead kept ≥ 1 mm, r_dead in [0, r_end]); seeded by (seed, k), so the same k gives
-// the same model. Draws come in antithetic pairs (2j and 2j+1 move each knot by ±the same error).
+// N(0, σ) (d_dead kept ≥ 1 mm, r_dead in [0, r_end]), and each knot left out with the chance
+// 1 − real_p that it is not a knot at all; seeded by (seed, k), so the same k gives the same
+// model. Draws come in antithetic pairs (2j and 2j+1 move each knot by ±the same error, and
+// leave it out at u and at 1 − u of the same uniform u).
 LogModel draw_model(const LogModel& model, const ScanSpread& spread, int k, std::uint64_t seed);
 
 }  // namespace sawyer::sawing
