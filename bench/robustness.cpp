@@ -13,8 +13,9 @@
 // --eccentric 0: the generator's own 1–5 %, as before issue 41). Each is rendered as a short
 // section of S slices in memory, scanned as `sawyer scan` does (ct::scan_log: the stem pass keeping
 // the voxels, then scan_knots) and measured against the phantom's truth. It prints every scan's
-// figures, the pass rate of each stage against issue 20's targets, each failing condition with its
-// parameters, and the pass rate of each stage per bin of each drawn factor.
+// figures, the pass rate of each stage against issue 20's targets, the found knots' confidence
+// (Knot::confidence) against the truth by band, each failing condition with its parameters, and
+// the pass rate of each stage per bin of each drawn factor.
 // --true-stem 1 runs the knot pass on the phantom's true stem (pith, outline, heartwood) instead
 // of the scanned one, so that the knot figures measure the knot pass alone (the stem figures
 // are still the stem pass's).
