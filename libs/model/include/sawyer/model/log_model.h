@@ -105,8 +105,10 @@ struct Knot {
   double max_diameter() const { return diameter_at(std::min(r_dead, r_end)); }
   // The chance (0..1) that a knot the CT pipeline fitted is a real knot and not something else
   // taken for one (a streak, a pocket, a ring fragment), from its fit (axis RMS, support, length,
-  // diameter); 1 for a knot that was not fitted (support 0: a measured or generated log).
-  // See knot_confidence in log_model.cpp for where the figures come from.
+  // diameter); 1 for a knot that was not fitted (support 0: a measured or generated log). Its
+  // figures are those of Sawyer's own knot fit: use it for the knots of a scan (LogModel::qa
+  // set), not for knots imported with other fit figures (published maps). See log_model.cpp
+  // for where the figures come from.
   double confidence() const;
 
   // Axis point at pith distance r (mm), using the stem's pith at the axis height.
