@@ -356,6 +356,13 @@ bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, i
 // run holds the sample that many places on from where it could start: that sample is asked
 // first, and only a run through it is followed out (ok() may be costly: edging's lazy
 // bisection).
+// The length a run of `run_mm` is trimmed to: whole length steps (none: as it is).
+double trimmed_length(double run_mm, const WaneRules& rules) {
+  return rules.length_step_mm > 0
+             ? std::floor(run_mm / rules.length_step_mm + 1e-9) * rules.length_step_mm
+             : run_mm;
+}
+
 template <class Ok>
 bool trim(const Stem& stem, int n, Ok&& ok, const WaneRules& rules, int min_run, double* zb,
           double* ze) {
@@ -388,9 +395,7 @@ bool trim(const Stem& stem, int n, Ok&& ok, const WaneRules& rules, int min_run,
   }
   if (best_n == 0) return false;
   const double run = best_n * stem.dz_mm;
-  const double len = rules.length_step_mm > 0
-                         ? std::floor(run / rules.length_step_mm + 1e-9) * rules.length_step_mm
-                         : run;
+  const double len = trimmed_length(run, rules);
   if (len <= 0 || len < rules.min_length_mm) return false;
   const double mid = stem.z_at(best0) - 0.5 * stem.dz_mm + 0.5 * run;
   *zb = mid - 0.5 * len;
@@ -592,11 +597,7 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         // length) need not be found: the shortest that might (a little short of it, for
         // rounding), by bisection on the run length (the trimmed length grows with it).
         const auto might_do = [&](int run) {
-          const double mm = run * stem.dz_mm;
-          const double len = pattern.wane.length_step_mm > 0
-                                 ? std::floor(mm / pattern.wane.length_step_mm + 1e-9) *
-                                       pattern.wane.length_step_mm
-                                 : mm;
+          const double len = trimmed_length(run * stem.dz_mm, pattern.wane);
           const double v = w * len * (1 + 1e-9);
           return len > 0 && len >= pattern.wane.min_length_mm &&
                  (wider ? v >= best_value : v > best_value);
