@@ -23,7 +23,9 @@
 // one condition's per-slice pith, outline and spurious or missed knots (docs/scan.md);
 // SAWYER_KNOT_CSV=FILE appends a row per found knot of every scan: condition, fine (1/0), paired
 // with a true knot (1/0), largest diameter, r_end, fit RMS, support, axis and diameter RMS of the
-// fit, dark-ring shells, dead (1/0) — what a rule against spurious knots can be tried on.
+// fit, dark-ring shells, dead (1/0), found r_dead (at most r_end), and the paired true knot's
+// r_dead, r_end and largest diameter (nan when spurious) — what a rule against spurious knots,
+// or the scan-uncertainty draws (uncertainty.h), can be tried on.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -192,7 +194,7 @@ struct Figures {
   double recall = NAN, precision = NAN, diam_rmse = NAN, r_dead = NAN, r_end = NAN;
   double diam_sum2 = 0;
   long diam_count = 0;
-  std::vector<double> r_dead_errors;
+  std::vector<double> r_dead_errors, r_dead_signed;
   // Per found knot: its confidence (Knot::confidence) and whether it paired with a true knot.
   std::vector<std::pair<double, bool>> knot_confidence;
   std::optional<bool> flagged;  // the scan's own QA verdict failed (ct::assess_scan)
@@ -449,12 +451,16 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
       const auto& ks = sr.knots.knots;
       const bool has_fit = sr.knots.fits.size() == ks.size();
       for (size_t k = 0; k < ks.size(); ++k) {
-        std::fprintf(out, "%d,%d,%d,%.2f,%.1f,%.2f,%d,%.2f,%.2f,%d,%d\n", c.id, f.fine ? 1 : 0,
-                     m.found_pair[k] >= 0 ? 1 : 0, ks[k].max_diameter(), ks[k].r_end,
-                     ks[k].fit_rms_mm, ks[k].support, has_fit ? sr.knots.fits[k].axis_rms_mm : -1,
-                     has_fit ? sr.knots.fits[k].diameter_rms_mm : -1,
-                     has_fit ? sr.knots.fits[k].dark_ring_shells : -1,
-                     has_fit ? (sr.knots.fits[k].dead ? 1 : 0) : -1);
+        const int t = m.found_pair[k];
+        const Knot* tk = t >= 0 ? &truth.knots[static_cast<size_t>(t)] : nullptr;
+        std::fprintf(
+            out, "%d,%d,%d,%.2f,%.1f,%.2f,%d,%.2f,%.2f,%d,%d,%.1f,%.1f,%.1f,%.2f\n", c.id,
+            f.fine ? 1 : 0, m.found_pair[k] >= 0 ? 1 : 0, ks[k].max_diameter(), ks[k].r_end,
+            ks[k].fit_rms_mm, ks[k].support, has_fit ? sr.knots.fits[k].axis_rms_mm : -1,
+            has_fit ? sr.knots.fits[k].diameter_rms_mm : -1,
+            has_fit ? sr.knots.fits[k].dark_ring_shells : -1,
+            has_fit ? (sr.knots.fits[k].dead ? 1 : 0) : -1, std::min(ks[k].r_dead, ks[k].r_end),
+            tk ? tk->r_dead : NAN, tk ? tk->r_end : NAN, tk ? tk->max_diameter() : NAN);
       }
       std::fclose(out);
     }
@@ -463,6 +469,7 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
   f.diam_rmse = m.diameter_rmse();
   f.diam_sum2 = m.diameter_sum2, f.diam_count = m.diameter_count;
   f.r_dead_errors = m.r_dead_mm;
+  f.r_dead_signed = m.r_dead_signed_mm;
   f.dead_pairs = static_cast<int>(m.r_dead_mm.size());
   f.r_dead = median_of(m.r_dead_mm);
   f.r_end = median_of(m.r_end_mm);
@@ -785,7 +792,7 @@ void print_pass_rates(const std::vector<Done>& done) {
   // error over all their dead pairs, and recall/precision over all knots.
   double s2 = 0;
   long sn = 0;
-  std::vector<double> rd;
+  std::vector<double> rd, rds;
   int tb[2] = {0, 0}, fb[2] = {0, 0}, nf[2] = {0, 0}, ns[2] = {0, 0};
   for (const Done& d : done) {
     if (!d.f.error.empty()) continue;  // no knots measured
@@ -794,17 +801,21 @@ void print_pass_rates(const std::vector<Done>& done) {
     if (!d.f.fine) continue;
     s2 += d.f.diam_sum2, sn += d.f.diam_count;
     rd.insert(rd.end(), d.f.r_dead_errors.begin(), d.f.r_dead_errors.end());
+    rds.insert(rds.end(), d.f.r_dead_signed.begin(), d.f.r_dead_signed.end());
   }
   std::printf(
       "\nPooled over the fine scans: knots >= 10 mm recall %s (%d/%d), precision %s "
       "(%d/%d right); diameter RMSE %s mm (target <= 2); r_dead median error %s mm "
-      "(target <= 5, %zu dead pairs). Coarse scans: knots >= 15 mm recall %s (%d/%d), "
+      "(target <= 5, %zu dead pairs; signed found - true: median %s, quartiles %s / %s mm). Coarse "
+      "scans: knots >= 15 mm recall %s (%d/%d), "
       "precision %s (%d/%d). Scans whose stem or knot pass failed (counted as failing "
       "every stage they enter): %d; conditions the phantom refused (not counted): %d.\n",
       fmt("%.1f %%", tb[0] ? 100.0 * fb[0] / tb[0] : NAN).c_str(), fb[0], tb[0],
       fmt("%.1f %%", nf[0] ? 100.0 * (nf[0] - ns[0]) / nf[0] : NAN).c_str(), nf[0] - ns[0], nf[0],
       fmt("%.2f", sn ? std::sqrt(s2 / sn) : NAN).c_str(), fmt("%.1f", median_of(rd)).c_str(),
-      rd.size(), fmt("%.1f %%", tb[1] ? 100.0 * fb[1] / tb[1] : NAN).c_str(), fb[1], tb[1],
+      rd.size(), fmt("%.1f", percentile(rds, 0.5)).c_str(),
+      fmt("%.1f", percentile(rds, 0.25)).c_str(), fmt("%.1f", percentile(rds, 0.75)).c_str(),
+      fmt("%.1f %%", tb[1] ? 100.0 * fb[1] / tb[1] : NAN).c_str(), fb[1], tb[1],
       fmt("%.1f %%", nf[1] ? 100.0 * (nf[1] - ns[1]) / nf[1] : NAN).c_str(), nf[1] - ns[1], nf[1],
       errors, excluded);
 

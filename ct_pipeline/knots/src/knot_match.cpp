@@ -85,8 +85,10 @@ KnotMatch match_knots(const std::vector<Knot>& found, const std::vector<Knot>& t
                              : k.r_end;
     const double true_end = std::min(k.r_end, outer);
     m.r_end_mm.push_back(std::abs(f.r_end - true_end));
-    if (k.r_dead < true_end)
-      m.r_dead_mm.push_back(std::abs(std::min(f.r_dead, f.r_end) - k.r_dead));
+    if (k.r_dead < true_end) {
+      m.r_dead_signed_mm.push_back(std::min(f.r_dead, f.r_end) - k.r_dead);
+      m.r_dead_mm.push_back(std::abs(m.r_dead_signed_mm.back()));
+    }
     double pair2 = 0;
     int pair_n = 0;
     for (double q = 5.0; q <= std::min(f.r_end, true_end); q += 2.0) {

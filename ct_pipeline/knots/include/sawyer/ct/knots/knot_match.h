@@ -26,11 +26,12 @@ struct KnotMatch {
   int truth_found = 0;    // of which paired
   int found = 0, spurious = 0;
   // Errors over the pairs whose true knot lies inside the range (any thickness).
-  std::vector<double> azimuth_deg;  // |Δω| at r = min(50, both r_end)
-  std::vector<double> height_mm;    // |Δz| at the same r
-  std::vector<double> r_dead_mm;    // true knots with a dead part before their end
-  std::vector<double> r_end_mm;     // true end = min(r_end, outer radius there)
-  double diameter_sum2 = 0;         // squared diameter errors every 2 mm over the common length
+  std::vector<double> azimuth_deg;       // |Δω| at r = min(50, both r_end)
+  std::vector<double> height_mm;         // |Δz| at the same r
+  std::vector<double> r_dead_mm;         // true knots with a dead part before their end
+  std::vector<double> r_dead_signed_mm;  // the same pairs, found − true (> 0: dead part too short)
+  std::vector<double> r_end_mm;          // true end = min(r_end, outer radius there)
+  double diameter_sum2 = 0;  // squared diameter errors every 2 mm over the common length
   long diameter_count = 0;
   std::vector<std::string> missed, spurious_list;  // one line each
   std::vector<std::string> pairs;  // each pair's diameters, r_dead and r_end, true and found
