@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "sawyer/model/log_json.h"
 #include "sawyer/render/image.h"
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/placement.h"
@@ -312,6 +313,63 @@ TEST(Report, StatesTheScannerFrameOfTheScan) {
   const Json rep = Json::parse(read(dir / "report/report.json"));
   EXPECT_NEAR(rep["position"]["scanner"]["turn_deg"].get<double>(), sc["turn_deg"].get<double>(),
               1e-9);
+}
+
+// A log from a scan, sawn with draws of its scan uncertainty (issue 43, item 2): the report
+// states the held-out claim with its range as sawing.json has it, and every knot that decides a
+// grade carries how sure its fit is that it is a knot (Knot::confidence of the log's knot).
+TEST(Report, AScannedLogsClaimHasItsRangeAndItsLimitingKnotsTheirConfidence) {
+  test::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(make_run_folder(dir.path()));
+  {  // Plain: a model without a scan verdict has no claim range and no knot confidence.
+    ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+    const Json rep = Json::parse(read(dir / "report/report.json"));
+    EXPECT_FALSE(rep.contains("claim"));
+    for (const Json& b : rep["boards"])
+      for (const Json& k : b["limiting_knots"]) EXPECT_FALSE(k.contains("confidence"));
+  }
+  Json log = Json::parse(read(dir / "scan" / "log.json"));
+  log["qa"] = {{"trusted", true}, {"scan_class", "fine"}, {"warnings", Json::array()}};
+  for (size_t i = 0; i < log["knots"].size(); ++i) {  // fits from good to ragged
+    log["knots"][i]["fit_rms_mm"] = 0.3 + 0.5 * static_cast<double>(i % 5);
+    log["knots"][i]["support"] = 20 + 15 * static_cast<int>(i % 4);
+  }
+  test::write_file(dir / "scan" / "log.json", log.dump(1));
+  std::string out;
+  ASSERT_EQ(test::run_sawyer("saw " + test::quoted(dir / "scan" / "log.json") +
+                                 " -q --scan-draws 4 -o " + test::quoted(dir / "sawing.json"),
+                             &out),
+            0)
+      << out;
+  const Json sawing = Json::parse(read(dir / "sawing.json"));
+  ASSERT_TRUE(sawing.contains("claim")) << sawing.dump(1).substr(0, 400);
+  ASSERT_NO_FATAL_FAILURE(make_report(dir.path()));
+  const Json rep = Json::parse(read(dir / "report/report.json"));
+  ASSERT_TRUE(rep.contains("claim"));
+  EXPECT_EQ(rep["claim"]["low"], sawing["claim"]["low"]);
+  EXPECT_EQ(rep["claim"]["high"], sawing["claim"]["high"]);
+  EXPECT_LE(rep["claim"]["low"].get<double>(), rep["claim"]["gain_over_horns_down"].get<double>());
+  const std::string line = rep["claim"]["line"];
+  EXPECT_NE(line.find("90 % range"), std::string::npos) << line;
+  EXPECT_NE(read(dir / "report/report.html").find("<th>Claim</th><td>" + line), std::string::npos)
+      << line;
+  // The knots that decide grades, each with its own fit's confidence.
+  Result<LogModel> model = read_log_json(dir / "scan" / "log.json");
+  ASSERT_TRUE(model.ok()) << model.error().message();
+  int listed = 0;
+  for (const Json& b : rep["boards"])
+    for (const Json& k : b["limiting_knots"]) {
+      ASSERT_TRUE(k.contains("confidence")) << k.dump();
+      const int id = k["knot"];
+      for (const Knot& kn : model.value().knots)
+        if (kn.id == id) EXPECT_NEAR(k["confidence"].get<double>(), kn.confidence(), 1e-12);
+      char sure[48];
+      std::snprintf(sure, sizeof sure, "%.0f %% sure it is a knot",
+                    100 * k["confidence"].get<double>());
+      EXPECT_NE(k["text"].get<std::string>().find(sure), std::string::npos) << k["text"];
+      ++listed;
+    }
+  EXPECT_GT(listed, 0) << "no limiting knot on gran1's boards";
 }
 
 // Issue 44: the header's line (the run's date, the scan's description, the version) ran off the

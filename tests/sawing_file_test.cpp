@@ -134,3 +134,36 @@ TEST(SawingFile, ABadFileIsRefusedNamingTheKey) {
   ASSERT_FALSE(missing.ok());
   EXPECT_THAT(missing.error().message(), HasSubstr("/nonexistent/sawing.json: missing"));
 }
+
+// The claim under the scan's uncertainty (OptimiseResult::claim) is written only when the values
+// were drawn, reads back as written, and a range that does not hold its claim is refused.
+TEST(SawingFile, TheClaimWithItsRangeReadsBackAndABrokenRangeIsRefused) {
+  const LogModel& log = test::sample_model("gran1_spruce");
+  const SawSetup su = setup_for("");
+  Result<SawingOutcome> out = saw_log_model(log, su);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  SawingOutcome o = out.value();
+  Result<SawingRecord> plain = sawing_record_from_json(sawing_file_json(log, su, o).dump());
+  ASSERT_TRUE(plain.ok()) << plain.error().message();
+  EXPECT_FALSE(plain.value().claim.has_value());  // no draws, no claim range
+
+  o.opt.claim = {0.12, 0.081, 0.153, 5};
+  nlohmann::ordered_json j = sawing_file_json(log, su, o);
+  Result<SawingRecord> back = sawing_record_from_json(j.dump());
+  ASSERT_TRUE(back.ok()) << back.error().message();
+  ASSERT_TRUE(back.value().claim.has_value());
+  EXPECT_EQ(back.value().claim->gain, 0.12);
+  EXPECT_EQ(back.value().claim->low, 0.081);
+  EXPECT_EQ(back.value().claim->high, 0.153);
+  EXPECT_EQ(back.value().claim->groups, 5);
+  EXPECT_EQ(claim_text(*back.value().claim), "+12.0 % (90 % range +8.1 to +15.3 %)");
+
+  j["claim"]["low"] = 0.2;  // above the claim
+  Result<SawingRecord> bad = sawing_record_from_json(j.dump());
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(bad.error().message(), HasSubstr("claim"));
+  j["claim"]["low"] = "low";
+  bad = sawing_record_from_json(j.dump());
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(bad.error().message(), HasSubstr("claim.low"));
+}

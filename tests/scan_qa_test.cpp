@@ -102,6 +102,7 @@ TEST(AssessScan, ASoundRecordIsTrusted) {
   for (const char* name : {"levels", "pith", "outline", "heartwood", "knots"})
     EXPECT_TRUE(stage(d.verdict, name).ok) << name;
   EXPECT_EQ(qa_headline(d.verdict), "QA: trusted");
+  EXPECT_EQ(d.verdict.scan_class, d.coarse ? "coarse" : "fine");
 }
 
 TEST(AssessScan, APithNearTheBarkFailsThePithStage) {
@@ -268,12 +269,14 @@ TEST(ScanQaJson, RoundTripsThroughLogJsonAndRefusesBadObjects) {
   qa.warnings = {"pith uncertain on 40 % of the slices (worst z 1.20-1.80 m)"};
   qa.stages.push_back({"pith", false, 0.3, {"12 of 30 slices suspect", "rings weak"}});
   qa.stages.push_back({"knots", true, 0.9, {}});
+  qa.scan_class = "coarse";
   log.qa = qa;
   Result<LogModel> back = log_from_json(log_to_json(log));
   ASSERT_TRUE(back) << back.error().message();
   ASSERT_TRUE(back.value().qa.has_value());
   const ScanQa& b = *back.value().qa;
   EXPECT_FALSE(b.trusted);
+  EXPECT_EQ(b.scan_class, "coarse");
   EXPECT_EQ(b.warnings, qa.warnings);
   ASSERT_EQ(b.stages.size(), 2u);
   EXPECT_EQ(b.stages[0].name, "pith");
@@ -297,6 +300,9 @@ TEST(ScanQaJson, RoundTripsThroughLogJsonAndRefusesBadObjects) {
             std::string::npos);
   EXPECT_NE(refused(R"({"trusted": true, "warnings": [3]})").find("qa.warnings[0]"),
             std::string::npos);
+  EXPECT_NE(refused(R"({"trusted": true, "scan_class": "medium"})").find("qa.scan_class"),
+            std::string::npos);
+  EXPECT_EQ(refused(R"({"trusted": true})"), "accepted");  // older files: no class
   EXPECT_NE(refused(R"({"trusted": true, "warnings": [")" + std::string(2000, 'x') + R"("]})")
                 .find("longer than"),
             std::string::npos);

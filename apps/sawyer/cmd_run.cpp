@@ -92,9 +92,13 @@ void print_summary(const ct::RunOutcome& run, bool no_report) {
                 100 * out.opt.gain_over_horns_down);
   std::printf("saw set-up: %s\n%s\n", sawing::saw_setup_line(out.saw_log, p).c_str(),
               sawing::bow_line(out.saw_log.bow()).c_str());
-  if (out.opt.model_draws > 0)
+  if (out.opt.model_draws > 0) {
     std::printf("values averaged over the model and %d draws of its scan uncertainty (%s)\n",
                 out.opt.model_draws, out.opt.spread_note.c_str());
+    if (!su.position)
+      std::printf("claim over horns-down, held out from the draws that chose it: %s\n",
+                  sawing::claim_text(out.opt.claim).c_str());
+  }
   if (const std::string note = with_flags(sawing::offset_edge_note(out.opt));
       !su.position && !note.empty())
     std::printf("note: %s\n", note.c_str());

@@ -79,9 +79,12 @@ void print_sawing_summary(const LogModel& log, const SawSetup& su, const SawingO
   line("horns-down", r.horns_down);
   line("horns-up", r.horns_up);
   line("best (raw)", r.best_raw);
-  if (r.model_draws > 0)
+  if (r.model_draws > 0) {
     std::fprintf(f, "values averaged over the model and %d draws of its scan uncertainty (%s)\n",
                  r.model_draws, r.spread_note.c_str());
+    std::fprintf(f, "claim over horns-down, held out from the draws that chose it: %s\n",
+                 claim_text(r.claim).c_str());
+  }
   std::fprintf(f, "%s\n", bow_line(out.saw_log.bow()).c_str());
   std::fprintf(f, "saw set-up at the best position: %s\n",
                saw_setup_line(out.saw_log, r.best.pos).c_str());

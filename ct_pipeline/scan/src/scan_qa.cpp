@@ -235,6 +235,7 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
   d.slices = std::move(slices);
   d.slices.resize(n);
   d.coarse = coarse_scan(g, o);
+  d.verdict.scan_class = d.coarse ? "coarse" : "fine";
   const double dz = mean_step(g);
 
   // ---- per slice: the tallies ----

@@ -327,6 +327,11 @@ Result<ScanQa> parse_qa(const Json& j) {
     return Error(p + "trusted",
                  std::string("expected true or false, got ") + type_name(*t.value()));
   q.trusted = t.value()->get<bool>();
+  if (auto c = j.find("scan_class"); c != j.end()) {
+    if (!c->is_string() || (c->get<std::string>() != "fine" && c->get<std::string>() != "coarse"))
+      return Error(p + "scan_class", "expected \"fine\" or \"coarse\"");
+    q.scan_class = c->get<std::string>();
+  }
   Result<std::vector<std::string>> w = qa_lines(j, p, "warnings");
   if (!w) return w.error();
   q.warnings = std::move(w).value();
@@ -368,6 +373,7 @@ Result<ScanQa> parse_qa(const Json& j) {
 static Json qa_to_json(const ScanQa& q) {
   Json j;
   j["trusted"] = q.trusted;
+  if (!q.scan_class.empty()) j["scan_class"] = q.scan_class;
   j["warnings"] = q.warnings;
   Json st = Json::array();
   for (const ScanQa::Stage& s : q.stages)

@@ -853,6 +853,11 @@ Rows position_rows(const Content& c) {
       {"Horns-up", ref(s.horns_up)},
       {"Gain", percent(gain(s, s.horns_down, s.gain_over_horns_down)) + " over horns-down, " +
                    percent(gain(s, s.horns_up, s.gain_over_horns_up)) + " over horns-up" + basis}};
+  // Under the scan's uncertainty: the claim held out from the draws that chose the position.
+  if (s.claim && !s.chosen_given)
+    rows.push_back({"Claim", sawing::claim_text(*s.claim) +
+                                 " over horns-down, held out from the scan-uncertainty draws "
+                                 "that chose the position"});
   // With a pattern set: which pattern won, from which class, and the next best's value.
   if (s.pattern_choice)
     rows.insert(rows.begin() + 1,
@@ -1128,6 +1133,11 @@ std::string report_json(const Content& c, const ReportFiles& files) {
   j["gain_over_horns_down"] = gain(s, s.horns_down, s.gain_over_horns_down);
   j["gain_over_horns_up"] = gain(s, s.horns_up, s.gain_over_horns_up);
   j["gain_basis"] = s.chosen_given ? "value at the positions" : "expected values";
+  if (s.claim && !s.chosen_given)
+    j["claim"] = {{"gain_over_horns_down", s.claim->gain},
+                  {"low", s.claim->low},
+                  {"high", s.claim->high},
+                  {"line", sawing::claim_text(*s.claim)}};
   Json boards = Json::array();
   for (size_t i = 0; i < s.boards.size(); ++i) {
     const BoardRecord& b = s.boards[i];
@@ -1146,6 +1156,8 @@ std::string report_json(const Content& c, const ReportFiles& files) {
                             {"grade", c.details[i].grade_above},
                             {"allowed_mm", l.allowed_mm},
                             {"text", c.details[i].texts[k]}});
+        if (k < c.details[i].confidences.size())
+          limiting.back()["confidence"] = c.details[i].confidences[k];
       }
     boards.push_back({{"name", b.name},
                       {"thickness_mm", b.thickness_mm},

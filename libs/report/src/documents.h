@@ -27,13 +27,16 @@ struct Figure {
 // the HTML page's zoom, and the PDF's crops around the knots.
 struct BoardDetail {
   std::vector<sawing::LimitingKnot> knots;  // limiting_knots(), largest excess first
-  std::vector<std::string> texts;           // describe() of each
-  std::string grade_above;                  // the grade whose rules they break
-  std::vector<FaceMark> marks;              // those located on the faces
-  std::string note;                         // why no knots are listed, when none are
-  std::string strip_file;                   // under images/, e.g. "board_01_faces.jpg"
-  std::string strip_jpeg;                   // the faces at detail_px_per_cm, labelled
-  StripLayout strip;                        // where the rows lie in it
+  std::vector<std::string> texts;           // describe() of each (with its confidence, scans)
+  // Per knot: the chance it is a knot at all (Knot::confidence), for a log from a scan; else
+  // empty.
+  std::vector<double> confidences;
+  std::string grade_above;      // the grade whose rules they break
+  std::vector<FaceMark> marks;  // those located on the faces
+  std::string note;             // why no knots are listed, when none are
+  std::string strip_file;       // under images/, e.g. "board_01_faces.jpg"
+  std::string strip_jpeg;       // the faces at detail_px_per_cm, labelled
+  StripLayout strip;            // where the rows lie in it
   double detail_px_per_cm = 0;
   std::vector<Figure> crops;  // around each mark, as marks (the PDF's page of decisions)
 };

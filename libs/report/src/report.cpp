@@ -3,6 +3,7 @@
 #include "sawyer/report/report.h"
 
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <optional>
 
@@ -108,8 +109,30 @@ BoardDetail board_detail(const RunFolder& run, const Result<sawing::GradingRules
   }
   d.knots = sawing::limiting_knots(board, g, grade.grade);
   if (grade.grade > 0) d.grade_above = g.grade_name(grade.grade - 1);
-  for (const sawing::LimitingKnot& k : d.knots) d.texts.push_back(sawing::describe(k, g));
+  for (const sawing::LimitingKnot& k : d.knots) {
+    std::string text = sawing::describe(k, g);
+    // From a scan: how sure the fit is that it is a knot at all (a streak or a pocket may be
+    // taken for one; docs/knots.md "How sure a knot is").
+    if (run.log.qa)
+      for (const Knot& kn : run.log.knots)
+        if (kn.id == k.knot_id) {
+          const double c = kn.confidence();
+          d.confidences.push_back(c);
+          char b[64];
+          std::snprintf(b, sizeof b, "; %.0f %% sure it is a knot", 100 * c);
+          text += b;
+          break;
+        }
+    d.texts.push_back(std::move(text));
+  }
+  if (d.confidences.size() != d.knots.size()) d.confidences.clear();
   d.marks = limiting_marks(faces, run.log, board, d.knots, g);
+  for (FaceMark& m : d.marks)  // the marks say what the list says (with the confidence)
+    for (size_t k = 0; k < d.knots.size(); ++k)
+      if (d.knots[k].knot_id == m.knot_id) {
+        m.text = d.texts[k];
+        break;
+      }
   if (d.knots.empty())
     d.note = grade.grade == 0 ? "the best grade"
                               : "limited by " + rec.limited_by + ", not by a knot's size";

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <sstream>
 #include <string>
@@ -55,7 +56,69 @@ void smooth_line(double* base, size_t n, size_t stride, const std::vector<double
   for (size_t i = 0; i < n; ++i) base[i * stride] = tmp[i];
 }
 
+// One-sided 95 % quantile of Student's t with `df` degrees of freedom: exact to 3 decimals for
+// df ≤ 10, the Cornish-Fisher expansion above.
+double t95(int df) {
+  static const double kTable[] = {0,     6.314, 2.920, 2.353, 2.132, 2.015,
+                                  1.943, 1.895, 1.860, 1.833, 1.812};
+  if (df < 1) return NAN;
+  if (df <= 10) return kTable[df];
+  const double z = 1.6448536, v = df;
+  return z + (z * z * z + z) / (4 * v) +
+         (5 * std::pow(z, 5) + 16 * z * z * z + 3 * z) / (96 * v * v);
+}
+
 }  // namespace
+
+ClaimRange cross_validated_claim(const std::vector<std::vector<double>>& smoothed,
+                                 size_t horns_down) {
+  const size_t n = smoothed.size();
+  ClaimRange c;
+  if (n == 0 || smoothed[0].empty()) return c;
+  const size_t total = smoothed[0].size();
+  // Groups: member 0 (the model as it is), then draws (1, 2), (3, 4), ...: an antithetic pair.
+  std::vector<std::pair<size_t, size_t>> groups{{0, 1}};
+  for (size_t m = 1; m < n; m += 2) groups.push_back({m, std::min(n, m + 2)});
+  std::vector<double> sum(total, 0.0);
+  for (const std::vector<double>& s : smoothed)
+    for (size_t i = 0; i < total; ++i) sum[i] += s[i];
+  std::vector<double> gains;
+  for (auto [b, e] : groups) {
+    size_t best = 0;
+    double best_v = -INFINITY;
+    for (size_t i = 0; i < total; ++i) {
+      double v = sum[i];
+      for (size_t m = b; m < e; ++m) v -= smoothed[m][i];
+      if (v > best_v) best_v = v, best = i;  // the first of equals, as the optimiser's sort
+    }
+    for (size_t m = b; m < e; ++m) {
+      const double ref = smoothed[m][horns_down];
+      gains.push_back(ref > 0 ? smoothed[m][best] / ref - 1.0 : 0.0);
+    }
+  }
+  const double k = static_cast<double>(gains.size());
+  double mean = 0, var = 0;
+  for (double g : gains) mean += g / k;
+  for (double g : gains) var += (g - mean) * (g - mean);
+  c.gain = c.low = c.high = mean;
+  c.groups = static_cast<int>(groups.size());
+  if (gains.size() > 1) {
+    const double half =
+        t95(static_cast<int>(gains.size()) - 1) * std::sqrt(var / (k - 1)) * std::sqrt(1 + 1 / k);
+    c.low = mean - half, c.high = mean + half;
+  }
+  return c;
+}
+
+std::string claim_text(const ClaimRange& c) {
+  char b[96];
+  if (c.groups > 0 && c.high > c.low)
+    std::snprintf(b, sizeof b, "%+.1f %% (90 %% range %+.1f to %+.1f %%)", 100 * c.gain,
+                  100 * c.low, 100 * c.high);
+  else
+    std::snprintf(b, sizeof b, "%+.1f %%", 100 * c.gain);
+  return b;
+}
 
 bool is_point_symmetric(const Pattern& p) {
   auto near = [](double a, double b) { return std::abs(a - b) < 1e-6; };
@@ -231,18 +294,28 @@ Result<OptimiseResult> optimise_position(const SawLog& log, const Pattern& patte
   auto value_on = [&](const SawLog& l, const LogPosition& p) {
     return value_of(saw_for_sale(l, pattern, p, rules, prices), rules, prices).value;
   };
-  auto value_at = [&](const LogPosition& p) {
+  // The value at p of the model and of each draw (`out`, when given, gets them one by one), and
+  // their mean.
+  const size_t members = 1 + draw_logs.size();
+  auto value_at = [&](const LogPosition& p, double* out = nullptr) {
     double v = value_on(log, p);
-    for (const SawLog& d : draw_logs) v += value_on(d, p);
-    return v / (1.0 + draw_logs.size());
+    if (out) out[0] = v;
+    for (size_t m = 1; m < members; ++m) {
+      const double vm = value_on(draw_logs[m - 1], p);
+      if (out) out[m] = vm;
+      v += vm;
+    }
+    return v / static_cast<double>(members);
   };
+  // Per member, position by position ([i × members + m]), for the claim's range.
+  std::vector<double> member_value(members > 1 ? members * static_cast<size_t>(total) : 0);
 
   res.threads = o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());
   const auto t0 = std::chrono::steady_clock::now();
   std::atomic<int> next{0}, done{0};
   auto work = [&] {
     for (int i; (i = next.fetch_add(1)) < total;) {
-      res.value[i] = value_at(position_of(i));
+      res.value[i] = value_at(position_of(i), members > 1 ? &member_value[i * members] : nullptr);
       done.fetch_add(1);
     }
   };
@@ -283,6 +356,17 @@ Result<OptimiseResult> optimise_position(const SawLog& log, const Pattern& patte
   auto gain = [](double best, double ref) { return ref > 0 ? best / ref - 1.0 : 0.0; };
   res.gain_over_horns_down = gain(res.best.smoothed, res.horns_down.smoothed);
   res.gain_over_horns_up = gain(res.best.smoothed, res.horns_up.smoothed);
+  res.claim = {res.gain_over_horns_down, res.gain_over_horns_down, res.gain_over_horns_down, 0};
+  if (members > 1) {
+    std::vector<std::vector<double>> smoothed(members, std::vector<double>(total));
+    for (size_t m = 0; m < members; ++m) {
+      for (int i = 0; i < total; ++i) smoothed[m][i] = member_value[i * members + m];
+      smooth_value_surface(smoothed[m], nr, nx, ny, o.rot_step_deg, o.offset_x_step_mm,
+                           o.offset_y_step_mm, o.sigma_rot_deg, o.sigma_offset_mm,
+                           res.rot_range_deg == 180);
+    }
+    res.claim = cross_validated_claim(smoothed, res.index(0, cx, cy));
+  }
   return res;
 }
 

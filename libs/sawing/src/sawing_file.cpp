@@ -213,6 +213,12 @@ Json sawing_file_json(const LogModel& log, const SawSetup& setup, const SawingOu
   j["horns_up"] = ranked_json(out.saw_log, r.horns_up);
   j["gain_over_horns_down"] = r.gain_over_horns_down;
   j["gain_over_horns_up"] = r.gain_over_horns_up;
+  if (r.claim.groups > 0)
+    j["claim"] = {{"gain_over_horns_down", r.claim.gain},
+                  {"low", r.claim.low},
+                  {"high", r.claim.high},
+                  {"groups", r.claim.groups},
+                  {"range", "90 % prediction range over the scan's uncertainty draws"}};
   Json ranked = Json::array();
   for (const RankedPosition& p : r.ranked) ranked.push_back(ranked_json(out.saw_log, p));
   j["ranked"] = ranked;
@@ -525,6 +531,18 @@ Result<SawingRecord> parse_sawing(const Json& j) {
   }
   s.gain_over_horns_down = j.value("gain_over_horns_down", 0.0);
   s.gain_over_horns_up = j.value("gain_over_horns_up", 0.0);
+  if (auto c = j.find("claim"); c != j.end()) {
+    if (!c->is_object()) return Error("claim", "expected an object");
+    Result<double> g = number(*c, "gain_over_horns_down", "claim."),
+                   lo = number(*c, "low", "claim."), hi = number(*c, "high", "claim.");
+    for (const auto* r : {&g, &lo, &hi})
+      if (!*r) return r->error();
+    if (!(lo.value() <= g.value() && g.value() <= hi.value()))
+      return Error("claim", "low <= gain_over_horns_down <= high does not hold");
+    int groups = 0;
+    if (auto n = c->find("groups"); n != c->end() && n->is_number_integer()) groups = n->get<int>();
+    s.claim = ClaimRange{g.value(), lo.value(), hi.value(), groups};
+  }
   if (auto bw = j.find("bow"); bw != j.end()) {
     if (!bw->is_object()) return Error("bow", "expected an object");
     Result<double> h = number(*bw, "arc_sagitta_mm", "bow."),

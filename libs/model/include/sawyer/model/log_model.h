@@ -178,7 +178,10 @@ struct ScanQa {
     double confidence = 1.0;         // 0..1
     std::vector<std::string> notes;  // what was seen, one line each
   };
-  bool trusted = true;                // false: at least one stage failed its checks
+  bool trusted = true;  // false: at least one stage failed its checks
+  // "fine" or "coarse" (the QA's scan class: pixels and slice spacing, docs/scan.md); empty in
+  // older files. The scan's knot errors differ by class (sawing/uncertainty.h).
+  std::string scan_class;
   std::vector<std::string> warnings;  // the lines a reader must see first, worst first
   std::vector<Stage> stages;
 };

@@ -71,6 +71,21 @@ struct RankedPosition {
   double smoothed = 0;  // expected under the positioning error
 };
 
+// The gain over horns-down that a decision may claim, with its range, when the value surface was
+// drawn under the scan's uncertainty (OptimiseOptions::model_draws). The best of many noisy
+// estimates is biased upwards (the optimiser's curse): the best position of the mean surface is
+// best partly because of the draws' noise there. So the claim is cross-validated. The model as
+// it is and each antithetic pair of draws are one group each (a pair's two draws are not
+// independent); for each group, the best smoothed position of the mean over all other groups is
+// taken, and each member of the group gives its gain over horns-down there (smoothed values,
+// the member's own surface). gain is the mean of those N held-out gains (N = draws + 1), and
+// [low, high] is the 90 % prediction range of one more member's gain under a normal spread:
+// gain ± t(0.95, N − 1) · sd · √(1 + 1/N).
+struct ClaimRange {
+  double gain = 0, low = 0, high = 0;
+  int groups = 0;  // held-out groups the claim came from (0: no draws, the plain gain)
+};
+
 struct OptimiseResult {
   bool symmetric = false;                                         // pattern point-symmetric
   double rot_range_deg = 360;                                     // as used
@@ -90,13 +105,25 @@ struct OptimiseResult {
   int threads = 1;
   int model_draws = 0;      // draws the values averaged over (0 when the model had no spread)
   std::string spread_note;  // ScanSpread::note, when draws were used
-  double seconds = 0;       // wall clock of the grid evaluation
+  // The claim under the scan's uncertainty (with draws; see ClaimRange). Without draws
+  // claim.gain is gain_over_horns_down and the range is empty (low = high = gain).
+  ClaimRange claim;
+  double seconds = 0;  // wall clock of the grid evaluation
 };
 
 // Smooths a rotation × x × y grid in place (see above). `mirror_on_wrap`: the 180° case.
 void smooth_value_surface(std::vector<double>& surface, size_t nr, size_t nx, size_t ny,
                           double rot_step_deg, double x_step_mm, double y_step_mm,
                           double sigma_rot_deg, double sigma_offset_mm, bool mirror_on_wrap);
+
+// The cross-validated claim (ClaimRange) from the smoothed value surfaces of the model as it is
+// (smoothed[0]) and of its draws (smoothed[1..], antithetic pairs (1, 2), (3, 4), ...), all over
+// the same positions; `horns_down` is horns-down's index in them.
+ClaimRange cross_validated_claim(const std::vector<std::vector<double>>& smoothed,
+                                 size_t horns_down);
+
+// "+12.3 % (90 % range +8.1 to +15.0 %)" for a claim with a range, "+12.3 %" without.
+std::string claim_text(const ClaimRange& c);
 
 // `progress`, when set, is called from the calling thread with (done, total) now and then.
 Result<OptimiseResult> optimise_position(const SawLog& log, const Pattern& pattern,

@@ -21,6 +21,7 @@
 #include "sawyer/core/result.h"
 #include "sawyer/model/log_model.h"
 #include "sawyer/sawing/grading.h"
+#include "sawyer/sawing/optimise.h"
 #include "sawyer/sawing/pattern.h"
 #include "sawyer/sawing/sawing.h"
 #include "sawyer/sawing/sawing_job.h"
@@ -129,8 +130,11 @@ struct SawingRecord {
   std::optional<Pattern> chosen_pattern;
   PositionValue best, horns_down, horns_up;
   double gain_over_horns_down = 0, gain_over_horns_up = 0;  // of the best's expected value
-  bool chosen_given = false;                                // "chosen": "given"
-  PositionValue chosen;                                     // best or given_position
+  // The claim over horns-down under the scan's uncertainty ("claim"; present when the values
+  // were drawn, OptimiseOptions::model_draws): held-out gain and its 90 % range (ClaimRange).
+  std::optional<ClaimRange> claim;
+  bool chosen_given = false;  // "chosen": "given"
+  PositionValue chosen;       // best or given_position
   BowRecord bow;
   std::vector<BoardRecord> boards;  // at the chosen position
   ValueSurface surface;
