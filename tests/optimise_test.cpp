@@ -394,6 +394,7 @@ TEST(Optimise, DrawsTakeTheKnotErrorsAtTheSweepsRatesForTheScansClass) {
   EXPECT_EQ(s.knots[1].sound_p, kDeadKnotSoundP);
   EXPECT_NEAR(s.knots[0].twin_p, 1 / kKnotRecall[1] - 1, 1e-12);  // confidence 1: not fitted
   EXPECT_NE(s.note.find("coarse"), std::string::npos) << s.note;
+  EXPECT_NE(s.note.find("1 - its confidence)"), std::string::npos) << s.note;  // whole
   int made_dead = 0, made_sound = 0, twins = 0;
   double from_sum = 0, rdead_dev = 0;
   std::vector<double> twin_azimuths;

@@ -37,7 +37,7 @@ ScanSpread scan_spread(const LogModel& model) {
       s.knots[i].sound_p = kDeadKnotSoundP;
     s.knots[i].twin_p = std::min(1.0, (1.0 / kKnotRecall[cls] - 1.0) * s.knots[i].real_p);
   }
-  char buf[200];
+  char buf[640];
   std::snprintf(
       buf, sizeof buf,
       "knots from a scan: diameter σ %.0f mm (or %.0f %% above %.0f mm), r_dead σ %.0f mm%s; "
@@ -67,8 +67,8 @@ LogModel draw_model(const LogModel& model, const ScanSpread& spread, int k, std:
   for (size_t i = 0; i < m.knots.size() && i < spread.knots.size(); ++i) {
     Knot& q = m.knots[i];
     const double ed = sign * n01(rng), er = sign * n01(rng);
-    // The pair's draws take each chance at u and at 1 - u: leaving a knot out (1 - real_p),
-    // making a sound knot dead (dead_p).
+    // The pair's draws take each chance at u and at 1 - u of one uniform: leaving the knot out
+    // (1 - real_p), turning it dead or sound (dead_p, sound_p), a missed knot beside it (twin_p).
     const double u = u01(rng), v = u01(rng), t = u01(rng), az = u01(rng);
     keep[i] = (k % 2 ? 1.0 - u : u) < spread.knots[i].real_p;
     const double d_outer = q.max_diameter();
