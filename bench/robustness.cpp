@@ -24,7 +24,8 @@
 // SAWYER_KNOT_CSV=FILE appends a row per found knot of every scan: condition, fine (1/0), paired
 // with a true knot (1/0), largest diameter, r_end, fit RMS, support, axis and diameter RMS of the
 // fit, dark-ring shells, dead (1/0), found r_dead (at most r_end), and the paired true knot's
-// r_dead, r_end and largest diameter (nan when spurious) — what a rule against spurious knots,
+// r_dead, r_end and largest diameter (nan when spurious), and the density test's drop and core
+// HU scatter (KnotFitReport) — what a rule against spurious knots,
 // or the scan-uncertainty draws (uncertainty.h), can be tried on.
 #include <algorithm>
 #include <chrono>
@@ -454,13 +455,15 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
         const int t = m.found_pair[k];
         const Knot* tk = t >= 0 ? &truth.knots[static_cast<size_t>(t)] : nullptr;
         std::fprintf(
-            out, "%d,%d,%d,%.2f,%.1f,%.2f,%d,%.2f,%.2f,%d,%d,%.1f,%.1f,%.1f,%.2f\n", c.id,
+            out, "%d,%d,%d,%.2f,%.1f,%.2f,%d,%.2f,%.2f,%d,%d,%.1f,%.1f,%.1f,%.2f,%.1f,%.1f\n", c.id,
             f.fine ? 1 : 0, m.found_pair[k] >= 0 ? 1 : 0, ks[k].max_diameter(), ks[k].r_end,
             ks[k].fit_rms_mm, ks[k].support, has_fit ? sr.knots.fits[k].axis_rms_mm : -1,
             has_fit ? sr.knots.fits[k].diameter_rms_mm : -1,
             has_fit ? sr.knots.fits[k].dark_ring_shells : -1,
             has_fit ? (sr.knots.fits[k].dead ? 1 : 0) : -1, std::min(ks[k].r_dead, ks[k].r_end),
-            tk ? tk->r_dead : NAN, tk ? tk->r_end : NAN, tk ? tk->max_diameter() : NAN);
+            tk ? tk->r_dead : NAN, tk ? tk->r_end : NAN, tk ? tk->max_diameter() : NAN,
+            has_fit ? sr.knots.fits[k].density_step_hu : NAN,
+            has_fit ? sr.knots.fits[k].density_noise_hu : NAN);
       }
       std::fclose(out);
     }

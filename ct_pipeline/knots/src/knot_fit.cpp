@@ -68,7 +68,8 @@ constexpr double kCoreSkipMm = 10.0;
 constexpr int kMinCoreShells = 8;
 constexpr double kOuterFraction = 0.3;
 
-double r_dead_from_density(const std::vector<Shell>& shells, double r_end) {
+double r_dead_from_density(const std::vector<Shell>& shells, double r_end, double* step_hu,
+                           double* noise_hu) {
   std::vector<std::pair<double, double>> v;  // r, core HU
   for (const Shell& s : shells)
     if (!std::isnan(s.core_hu) && s.r >= kCoreSkipMm) v.push_back({s.r, s.core_hu});
@@ -84,6 +85,10 @@ double r_dead_from_density(const std::vector<Shell>& shells, double r_end) {
   std::vector<double> outer(level.begin() + outer_from, level.end());
   const double dead_level = median_inplace(outer);
   const double peak = *std::max_element(level.begin(), level.begin() + outer_from + 1);
+  std::vector<double> dev(v.size());
+  for (int i = 0; i < n; ++i) dev[i] = std::abs(v[i].second - level[i]);
+  *step_hu = peak - dead_level;
+  *noise_hu = kMadToSigma * median_inplace(dev);
   if (peak - dead_level < kDeadStepHu) return r_end;
   const double mid = 0.5 * (peak + dead_level);
   int last = -1;
@@ -522,8 +527,9 @@ Result<KnotFitReport> fit_knot(const KnotTrace& trace, const KnotFitOptions& opt
 
   Result<AxisFit> axis = fit_axis(shells, options);
   if (!axis) return axis.error();
+  double step_hu = NAN, noise_hu = NAN;
   const double r_dead_density =
-      options.use_density ? r_dead_from_density(shells, r_end) : std::nan("");
+      options.use_density ? r_dead_from_density(shells, r_end, &step_hu, &noise_hu) : std::nan("");
   // A dead knot's outline includes the bark encased around it, darker than the wood, which the
   // detector's diameter (the dense part) leaves out: beyond r_dead the shells are widened by it.
   if (!std::isnan(r_dead_density) && r_dead_density < r_end && options.encased_bark_mm > 0)
@@ -552,6 +558,8 @@ Result<KnotFitReport> fit_knot(const KnotTrace& trace, const KnotFitOptions& opt
   report.iterations = axis.value().iterations + diam.value().iterations;
   report.dark_ring_shells = dark;
   report.dead = diam.value().dead;
+  report.density_step_hu = step_hu;
+  report.density_noise_hu = noise_hu;
   return report;
 }
 

@@ -15,6 +15,8 @@
 // knot costs well under a millisecond on one core.
 #pragma once
 
+#include <cmath>
+
 #include "sawyer/core/result.h"
 #include "sawyer/ct/knots/knot_detect.h"
 #include "sawyer/model/log_model.h"
@@ -63,6 +65,10 @@ struct KnotFitReport {
   int iterations = 0;        // Ceres iterations, all solves
   int dark_ring_shells = 0;  // shells whose ring_hu says "encased bark"
   bool dead = false;         // a dead part was found (knot.r_dead < knot.r_end)
+  // The density test for a dead part (knot_fit.cpp r_dead_from_density): the drop of the core
+  // HU level from its highest inside to the outer part, and the core HU's own scatter about its
+  // level (robust σ); NaN when too few shells had a core HU.
+  double density_step_hu = NAN, density_noise_hu = NAN;
 };
 
 // Errors: too few shells, non-finite shell values, or a solve that did not give a usable
