@@ -69,9 +69,10 @@ Result<BoardFaces> render_faces(render::WoodRenderer& r, const sawing::SawLog& l
 std::vector<FaceMark> limiting_marks(const BoardFaces& f, const LogModel& log,
                                      const sawing::Board& board,
                                      const std::vector<sawing::LimitingKnot>& knots,
-                                     const sawing::GradingRules& rules) {
+                                     const std::vector<std::string>& texts) {
   std::vector<FaceMark> out;
-  for (const sawing::LimitingKnot& l : knots) {
+  for (size_t i = 0; i < knots.size(); ++i) {
+    const sawing::LimitingKnot& l = knots[i];
     const sawing::KnotOnSide& k = board.knots[l.index];
     if (k.knot < 0 || k.knot >= static_cast<int>(log.knots.size())) continue;
     const Vec3 p = log.knots[k.knot].axis_point(k.r_mm, log.stem);
@@ -101,7 +102,7 @@ std::vector<FaceMark> limiting_marks(const BoardFaces& f, const LogModel& log,
     m.width_mm = l.width_mm;
     m.dead = l.dead;
     m.knot_id = l.knot_id;
-    m.text = sawing::describe(l, rules);
+    m.text = texts[i];
     out.push_back(std::move(m));
   }
   return out;

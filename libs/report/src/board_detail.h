@@ -38,15 +38,15 @@ struct FaceMark {
   double width_mm = 0;  // across the side, as graded
   bool dead = false;
   int knot_id = 0;
-  std::string text;  // describe(LimitingKnot)
+  std::string text;  // the knot's line (texts[i] of limiting_marks)
 };
 
 // The limiting knots of a board located on its faces (a knot whose crossing lies on no face, by
-// more than a few millimetres, is left out).
+// more than a few millimetres, is left out); texts[i] is knots[i]'s line.
 std::vector<FaceMark> limiting_marks(const BoardFaces& faces, const LogModel& log,
                                      const sawing::Board& board,
                                      const std::vector<sawing::LimitingKnot>& knots,
-                                     const sawing::GradingRules& rules);
+                                     const std::vector<std::string>& texts);
 
 // Where the row images lie in a composed strip: row pixel (x, y) is strip pixel
 // (x0 + scale·x, row_y[row] + scale·y).

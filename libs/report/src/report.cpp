@@ -113,26 +113,18 @@ BoardDetail board_detail(const RunFolder& run, const Result<sawing::GradingRules
     std::string text = sawing::describe(k, g);
     // From a scan: how sure the fit is that it is a knot at all (a streak or a pocket may be
     // taken for one; docs/knots.md "How sure a knot is").
-    if (run.log.qa)
-      for (const Knot& kn : run.log.knots)
-        if (kn.id == k.knot_id) {
-          const double c = kn.confidence();
-          d.confidences.push_back(c);
-          char b[64];
-          std::snprintf(b, sizeof b, "; %.0f %% sure it is a knot", 100 * c);
-          text += b;
-          break;
-        }
+    const int ki = board.knots[k.index].knot;
+    if (run.log.qa && ki >= 0 && ki < static_cast<int>(run.log.knots.size())) {
+      const double c = run.log.knots[static_cast<size_t>(ki)].confidence();
+      d.confidences.push_back(c);
+      char b[64];
+      std::snprintf(b, sizeof b, "; %.0f %% sure it is a knot", 100 * c);
+      text += b;
+    }
     d.texts.push_back(std::move(text));
   }
   if (d.confidences.size() != d.knots.size()) d.confidences.clear();
-  d.marks = limiting_marks(faces, run.log, board, d.knots, g);
-  for (FaceMark& m : d.marks)  // the marks say what the list says (with the confidence)
-    for (size_t k = 0; k < d.knots.size(); ++k)
-      if (d.knots[k].knot_id == m.knot_id) {
-        m.text = d.texts[k];
-        break;
-      }
+  d.marks = limiting_marks(faces, run.log, board, d.knots, d.texts);
   if (d.knots.empty())
     d.note = grade.grade == 0 ? "the best grade"
                               : "limited by " + rec.limited_by + ", not by a knot's size";
