@@ -604,6 +604,7 @@ void apply_levels(const ScanLevels& l, double heartwood_sigmas, PithOptions* p, 
     c->noise_hu = sigma;
     c->wood_max_hu = l.dense_median_hu;  // a median of a few samples: tighter than a pixel's
     c->wood_peak_hu = l.wood_high_hu + 2.25 * (l.dense_hu - l.wood_high_hu);
+    c->dried = l.dried;
   }
   if (h) h->min_contrast_hu = heartwood_sigmas * sigma;
 }

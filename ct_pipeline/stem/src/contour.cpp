@@ -366,6 +366,298 @@ double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
   return median_inplace(per_ray);
 }
 
+// Dried wood (issue 41): the bark is barely lighter than the wood (50-120 HU, less than a noisy
+// pixel's spread and less than the rings' own swing), so no level separates them on one ray, and
+// the wood's level from the histogram (its mode: the earlywood, with strong rings) may even lie
+// under the bark's. The bark is found instead as what it is: a layer under the log's edge with
+// air whose CT numbers differ from the wood's in level and in texture (no rings).
+//   1. The edge with air per ray, walking outwards from well inside the log: the first fall into
+//      air that stays there for kWeakAirMm (a check's gap is narrower; the gap under loose bark
+//      or before the bed's belt is wider). Edges far off a robust outline through them (the far
+//      side of the belt the bark lies on) are dropped; those rays are filled from their
+//      neighbours.
+//   2. The profile inwards from it (kMaxBarkMm of bark and kWeakWoodMm of wood at most) is split
+//      in two, bark above and wood below, where it is best explained as two stretches each of
+//      its own mean and spread (a change point: t log var(bark) + (n - t) log var(wood), spreads
+//      floored at half the scan's noise); the costs of the rays kWeakPoolDeg either side are
+//      summed (the bark's thickness changes slowly round the log) and the split kept where it
+//      beats no split by a BIC margin with the lighter stretch outside.
+//   3. The slice's typical bark then bounds each ray's: no deeper than twice the median split and
+//      kWeakSpreadMm, and the outer stretch nearer the bark's median level than the wood's (a
+//      knot under the surface, 300 HU denser than dry wood, otherwise makes its rays' best split
+//      at the knot with wood taken for bark): else the best shallower split.
+//   4. To a fraction of a sample: the crossing nearest the split of the level midway between the
+//      bark and the kWeakLevelMm of wood under it, on the profile averaged over the pooled rays
+//      (the change point puts samples that mix bark and wood on the side with the larger spread).
+constexpr double kWeakAirMm = 2.0;
+constexpr double kWeakAirOffMm = 4.0, kWeakAirOffShare = 0.04;  // or this share of the radius
+constexpr double kWeakWoodMm = 8.0;
+constexpr double kWeakPoolDeg = 3.0;
+constexpr double kWeakSpreadMm = 4.0;
+constexpr double kWeakLevelMm = 2.0;
+constexpr double kWeakStepCost = 10.0;
+constexpr double kWeakBarkShare = 0.1;
+constexpr double kWeakBareMm = 3.0;  // searched under the edge with air for a bare edge
+
+void refine_weak_bark(const Sampler& img, const Vec2& pith, double h, const ContourOptions& o,
+                      double air_edge, std::vector<double>& edge_r, std::vector<bool>& valid,
+                      std::vector<double>& bark_mm) {
+  const int n = static_cast<int>(edge_r.size());
+  std::vector<double> r_air(n, NAN);
+  std::vector<float> rv;
+  for (int k = 0; k < n; ++k) {
+    if (!valid[k]) continue;
+    const double w = kTwoPi * k / n;
+    const double c = std::cos(w), s = std::sin(w);
+    // The edge with air: walking outwards from well inside the log (a quarter of the surface's
+    // radius under it, deeper than any bark), the first fall through air_edge that stays in air
+    // for kWeakAirMm: not a check's narrow gap, but the gap under loose bark (its wood is the
+    // surface) and the gap before the bed's belt (which the surface may have been put on).
+    // Unless something brighter than any wood comes first (rails, steel).
+    const double step = 0.5 * h;
+    const int persist = std::max(2, static_cast<int>(std::ceil(kWeakAirMm / step)));
+    double r = std::max(h, 0.75 * edge_r[k]), cross = NAN;
+    float prev = img.at(pith.x + r * c, pith.y + r * s);
+    int run = 0;
+    for (r += step; r <= edge_r[k] + kMaxBarkMm + kWeakAirMm; r += step) {
+      const float v = img.at(pith.x + r * c, pith.y + r * s);
+      if (v > o.wood_peak_hu) break;
+      if (v < air_edge) {
+        if (prev >= air_edge)
+          cross = r - step + step * (prev - air_edge) / std::max(1e-6f, prev - v), run = 0;
+        if (++run >= persist) {
+          r_air[k] = cross;
+          break;
+        }
+      } else {
+        run = 0;
+      }
+      prev = v;
+    }
+    if (std::isfinite(r_air[k])) rv.push_back(static_cast<float>(r_air[k]));
+  }
+  if (rv.size() < 8) return;
+  const double r_med = median_inplace(rv);
+  // Edges with air far off a robust outline through them are not the log's (the far side of the
+  // bed's belt where the bark lies on it, a gap too narrow to count): those rays are dropped
+  // and filled from their neighbours.
+  {
+    std::vector<bool> has(n);
+    for (int k = 0; k < n; ++k) has[k] = std::isfinite(r_air[k]);
+    std::vector<double> fit, ra(r_air);
+    for (double& v : ra)
+      if (!std::isfinite(v)) v = 0;
+    if (robust_fourier(ra, has, kGrossOrder, &fit)) {
+      const double tol = std::max(kWeakAirOffMm, kWeakAirOffShare * r_med);
+      for (int k = 0; k < n; ++k)
+        if (has[k] && std::abs(r_air[k] - fit[k]) > tol) r_air[k] = NAN;
+    }
+  }
+  const int nd = static_cast<int>(std::floor(std::min(kMaxBarkMm + kWeakWoodMm, 0.5 * r_med) / h));
+  const int min_wood = static_cast<int>(std::ceil(std::min(kWeakWoodMm, 0.25 * nd * h) / h));
+  const int t_max = nd - min_wood;
+  if (t_max < 2) return;
+  const double floor_var = std::max(1.0, 0.25 * o.noise_hu * o.noise_hu);
+  // cost[k * (t_max + 1) + t]: ray k's profile split after t bark samples (at depths (i + 1) h),
+  // twice the negative log-likelihood less constants; t = 0: one stretch.
+  std::vector<double> cost(static_cast<size_t>(n) * (t_max + 1), 0.0);
+  std::vector<double> s1(static_cast<size_t>(n) * (nd + 1)), s2(s1.size());
+  std::vector<bool> usable(n, false);
+  auto var = [&](int k, int a, int b) {  // spread of samples [a, b) of ray k
+    const double* p1 = &s1[static_cast<size_t>(k) * (nd + 1)];
+    const double* p2 = &s2[static_cast<size_t>(k) * (nd + 1)];
+    const double m = (p1[b] - p1[a]) / (b - a);
+    return std::max(floor_var, (p2[b] - p2[a]) / (b - a) - m * m);
+  };
+  for (int k = 0; k < n; ++k) {
+    if (!std::isfinite(r_air[k]) || r_air[k] - nd * h < 0.25 * r_air[k]) continue;
+    usable[k] = true;
+    const double w = kTwoPi * k / n;
+    const double c = std::cos(w), s = std::sin(w);
+    double* p1 = &s1[static_cast<size_t>(k) * (nd + 1)];
+    double* p2 = &s2[static_cast<size_t>(k) * (nd + 1)];
+    p1[0] = p2[0] = 0;
+    for (int i = 0; i < nd; ++i) {
+      const double r = r_air[k] - (i + 1) * h;
+      const double v = img.at(pith.x + r * c, pith.y + r * s);
+      p1[i + 1] = p1[i] + v;
+      p2[i + 1] = p2[i] + v * v;
+    }
+    double* ck = &cost[static_cast<size_t>(k) * (t_max + 1)];
+    ck[0] = nd * std::log(var(k, 0, nd));
+    for (int t = 1; t <= t_max; ++t)
+      ck[t] = t * std::log(var(k, 0, t)) + (nd - t) * std::log(var(k, t, nd));
+  }
+  const int half = std::max(1, static_cast<int>(std::lround(kWeakPoolDeg * n / 360.0)));
+  const double penalty = 3.0 * std::log(static_cast<double>(nd));  // per ray: mean, spread, split
+  // Per ray, the pooled split at most `lim` samples deep (0: none) and the pooled means outside
+  // and inside it.
+  std::vector<double> pooled(t_max + 1), p_out(t_max + 1), p_in(t_max + 1);
+  auto pool = [&](int k, int lim) {  // fills pooled, p_out, p_in for t <= lim; the rays pooled
+    std::fill(pooled.begin(), pooled.begin() + lim + 1, 0.0);
+    std::fill(p_out.begin(), p_out.begin() + lim + 1, 0.0);
+    std::fill(p_in.begin(), p_in.begin() + lim + 1, 0.0);
+    int rays = 0;
+    for (int d = -half; d <= half; ++d) {
+      const int j = ((k + d) % n + n) % n;
+      if (!usable[j]) continue;
+      ++rays;
+      const double* cj = &cost[static_cast<size_t>(j) * (t_max + 1)];
+      const double* p1 = &s1[static_cast<size_t>(j) * (nd + 1)];
+      pooled[0] += cj[0];
+      for (int t = 1; t <= lim; ++t) {
+        pooled[t] += cj[t];
+        p_out[t] += p1[t] / t;
+        p_in[t] += (p1[nd] - p1[t]) / (nd - t);
+      }
+    }
+    for (int t = 1; t <= lim; ++t) p_out[t] /= rays, p_in[t] /= rays;
+    return rays;
+  };
+  auto choose = [&](int k, int lim, double* m_out, double* m_in) {
+    const int rays = pool(k, lim);
+    // The best split whose outer stretch is the lighter (else it is no bark), kept where it beats
+    // no split by the penalty.
+    int best = 0;
+    for (int t = 1; t <= lim; ++t)
+      if (p_out[t] < p_in[t] && (best == 0 || pooled[t] < pooled[best])) best = t;
+    if (best == 0 || pooled[best] + penalty * rays >= pooled[0]) return 0;
+    *m_out = p_out[best];
+    *m_in = p_in[best];
+    return best;
+  };
+  // First every split as deep as kMaxBarkMm. Then, from the slice's typical bark (its median
+  // depth and level) and wood (the level under it): no split deeper than twice the median and
+  // kWeakSpreadMm, and none whose outer stretch is nearer the wood's level than the bark's (a
+  // knot under the surface, denser than the wood by 300 HU when dry, makes the best split of its
+  // rays at the knot, with wood taken for bark, bark or none above it): the next best shallower.
+  // The split to a fraction of a sample: the change-point puts samples that mix bark and wood
+  // (the scanner's blur) on the side with the larger spread, the bark's when the edge with air is
+  // in it. Instead, the crossing nearest the split of the level midway between the bark and the
+  // wood just under it, on the profile averaged over the pooled rays.
+  std::vector<double> mean_prof(nd);
+  auto subsample = [&](int k, int t) {
+    std::fill(mean_prof.begin(), mean_prof.end(), 0.0);
+    int rays = 0;
+    for (int d = -half; d <= half; ++d) {
+      const int j = ((k + d) % n + n) % n;
+      if (!usable[j]) continue;
+      ++rays;
+      const double* p1 = &s1[static_cast<size_t>(j) * (nd + 1)];
+      for (int i = 0; i < nd; ++i) mean_prof[i] += p1[i + 1] - p1[i];
+    }
+    for (double& v : mean_prof) v /= rays;
+    const int b0 = t >= 3 ? 1 : 0;  // the first sample may hold air
+    const int w1 = std::min(nd, t + std::max(3, static_cast<int>(std::ceil(kWeakLevelMm / h))));
+    double mb = 0, mw = 0;
+    for (int i = b0; i < t; ++i) mb += mean_prof[i] / (t - b0);
+    for (int i = t; i < w1; ++i) mw += mean_prof[i] / (w1 - t);
+    const double level = 0.5 * (mb + mw);
+    double depth = (t + 0.5) * h, off = 1e9;
+    for (int i = std::max(1, t - 2); i <= std::min(nd - 1, t + 2); ++i) {
+      const double a = mean_prof[i - 1], b = mean_prof[i];  // depths i h and (i + 1) h
+      if (!(a < level && b >= level)) continue;
+      const double d = i * h + h * (level - a) / std::max(1e-6, b - a);
+      if (std::abs(d - (t + 0.5) * h) < off) off = std::abs(d - (t + 0.5) * h), depth = d;
+    }
+    return depth;
+  };
+  std::vector<int> first(n, 0);
+  std::vector<double> mo(n), mi(n);
+  std::vector<float> depths, outs, ins;
+  for (int k = 0; k < n; ++k)
+    if (usable[k] && (first[k] = choose(k, t_max, &mo[k], &mi[k])) > 0) {
+      depths.push_back(static_cast<float>(first[k]));
+      outs.push_back(static_cast<float>(mo[k]));
+      ins.push_back(static_cast<float>(mi[k]));
+    }
+  if (depths.size() < 8) return;
+  const int lim = std::min(
+      t_max, static_cast<int>(std::ceil(2.0 * median_inplace(depths) + kWeakSpreadMm / h)));
+  const double bark_like = 0.5 * (median_inplace(outs) + median_inplace(ins));
+  // No bark on a ray (where it is missing): the wood's own edge with air, where the ray falls
+  // through the level midway between the wood under it and air (r_air is where it reaches
+  // air_edge, in the edge's tail: the scanner's blur puts it up to a millimetre or two out).
+  auto bare_edge = [&](int k) {
+    const double* p1 = &s1[static_cast<size_t>(k) * (nd + 1)];
+    const int w = std::min(nd, 1 + std::max(3, static_cast<int>(std::ceil(kWeakLevelMm / h))));
+    const double level = 0.5 * ((p1[w] - p1[1]) / (w - 1) + o.air_hu);  // past the edge's sample
+    const double w0 = kTwoPi * k / n;
+    const double c = std::cos(w0), s = std::sin(w0);
+    double best = r_air[k], r = r_air[k] - kWeakBareMm;
+    double prev = img.at(pith.x + r * c, pith.y + r * s);
+    for (r += kFineStepMm; r <= r_air[k] + kFineStepMm; r += kFineStepMm) {
+      const double v = img.at(pith.x + r * c, pith.y + r * s);
+      if (prev >= level && v < level)
+        best = r - kFineStepMm + kFineStepMm * (prev - level) / std::max(1e-6, prev - v);
+      prev = v;
+    }
+    return best;
+  };
+  // The splits of all rays together: the path round the log through (ray, split) that costs
+  // least, each ray's pooled cost (with the penalty for a split; splits deeper than `lim` or
+  // whose outer stretch is not bark-like barred) plus kWeakStepCost per sample the split moves
+  // from one ray to the next (the bark's thickness is continuous round the log, so a run of
+  // rays whose best split jumps a ring deeper must be worth more than the jump). Two laps round
+  // the circle, the second's path kept (the first settles where it starts).
+  const int m = lim + 1;
+  std::vector<double> data(static_cast<size_t>(n) * m, 0.0);
+  for (int k = 0; k < n; ++k) {
+    if (!usable[k]) continue;
+    const int rays = pool(k, lim);
+    double* dk = &data[static_cast<size_t>(k) * m];
+    dk[0] = pooled[0];
+    for (int t = 1; t <= lim; ++t)
+      dk[t] = p_out[t] < p_in[t] && p_out[t] < bark_like ? pooled[t] + penalty * rays : 1e30;
+    const double lo = *std::min_element(dk, dk + m);
+    for (int t = 0; t <= lim; ++t) dk[t] -= lo;
+  }
+  const int laps = 2 * n;
+  std::vector<double> acc(m), next(m);
+  std::vector<int> from(static_cast<size_t>(laps) * m), arg(m);
+  for (int t = 0; t < m; ++t) acc[t] = data[t];
+  for (int q = 1; q < laps; ++q) {
+    // L1 distance transform of acc: next[t] = min over u of acc[u] + kWeakStepCost |t - u|.
+    for (int t = 0; t < m; ++t) next[t] = acc[t], arg[t] = t;
+    for (int t = 1; t < m; ++t)
+      if (next[t - 1] + kWeakStepCost < next[t])
+        next[t] = next[t - 1] + kWeakStepCost, arg[t] = arg[t - 1];
+    for (int t = m - 2; t >= 0; --t)
+      if (next[t + 1] + kWeakStepCost < next[t])
+        next[t] = next[t + 1] + kWeakStepCost, arg[t] = arg[t + 1];
+    const double* dk = &data[static_cast<size_t>(q % n) * m];
+    for (int t = 0; t < m; ++t) {
+      acc[t] = next[t] + dk[t];
+      from[static_cast<size_t>(q) * m + t] = arg[t];
+    }
+  }
+  std::vector<int> split(n, 0);
+  int t = static_cast<int>(std::min_element(acc.begin(), acc.end()) - acc.begin());
+  for (int q = laps - 1; q >= n; --q) {
+    split[q % n] = t;
+    t = from[static_cast<size_t>(q) * m + t];
+  }
+  // A bare log (a debarked or dried disc: bark on fewer than kWeakBarkShare of the rays) keeps
+  // the level's edge, which is the wood's own edge with air there. Else rays with bark take the
+  // split, rays without the wood's edge with air (where the bark is missing), and rays whose
+  // edge with air was not the log's are filled from their neighbours.
+  int rays = 0, with_bark = 0;
+  for (int k = 0; k < n; ++k) rays += usable[k], with_bark += usable[k] && split[k] > 0;
+  if (with_bark < kWeakBarkShare * rays) return;
+  for (int k = 0; k < n; ++k) {
+    if (valid[k] && !std::isfinite(r_air[k])) valid[k] = false;
+    if (!usable[k]) continue;
+    if (split[k] == 0) {
+      edge_r[k] = bare_edge(k);
+      bark_mm[k] = 0.0;
+      continue;
+    }
+    const double depth = subsample(k, split[k]);
+    edge_r[k] = r_air[k] - depth;
+    bark_mm[k] = depth;
+  }
+}
+
 }  // namespace
 
 ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
@@ -609,6 +901,9 @@ ContourResult detect_contour(const Slice& slice, const VolumeGeometry& geometry,
       }
     }
   }
+  // Dried wood: the bark found by its level and texture under the edge with air instead.
+  if (options.dried && std::isfinite(options.outer_wood_hu))
+    refine_weak_bark(img, pith_mm, h, options, air_edge, edge_r, out.valid, out.bark_mm);
   const std::vector<bool> measured = out.valid;
   const int half = std::max(2, static_cast<int>(std::lround(kMedianHalf * n / 360.0)));
   clean_angles(edge_r, out.valid, half, kOutlierMm,

@@ -146,6 +146,10 @@ struct ContourOptions {
   double outer_wood_hu = NAN;
   double noise_hu = 20.0;
   double bark_sigmas = 3.0;
+  // A dried log (ScanLevels::dried: one wood mode, near air): its bark is barely lighter than
+  // the wood, so the surface under it is found from the bark's level and texture under the edge
+  // with air on many rays together, not by a level on one ray (contour.cpp, refine_weak_bark).
+  bool dried = false;
 };
 
 struct ContourResult {
