@@ -390,6 +390,15 @@ TEST(ScanLog, RecordsKeepingOnlyTheQaImagesOutlinesGiveTheSameVerdictAndModel) {
 }
 
 // The outline's RMS error (mm) against the phantom's truth over the scanned slices.
+// scan_log on a phantom section of `log` under `o`; the phantom's truth in *truth.
+Result<ScanResult> scan_section(const LogModel& log, const PhantomOptions& o, LogModel* truth) {
+  auto ph = Phantom::create(log, o);
+  if (!ph) return ph.error();
+  *truth = ph.value()->truth_log();
+  PhantomSource src(*ph.value(), true);
+  return scan_log(src, ScanOptions{});
+}
+
 double outline_rms(const ScanResult& s, const LogModel& truth) {
   double sum2 = 0;
   long n = 0;
@@ -422,14 +431,12 @@ TEST(ScanLog, TheOutlineStageFlagsADriedLogsUnderBarkEdgeAndNotAGreenOnes) {
     PhantomOptions o = section_options(360, 0.8, 1650);
     if (c > 0) o.moisture = Moisture::kDried;
     if (c == 2) o.ring_contrast_hu = 200, o.noise_hu = 35, o.ring_width_mm = 1.5;
-    auto ph = Phantom::create(truth_log, o);
-    ASSERT_TRUE(ph) << ph.error().message();
-    PhantomSource src(*ph.value(), true);
-    auto r = scan_log(src, ScanOptions{});
+    LogModel truth;
+    auto r = scan_section(truth_log, o, &truth);
     ASSERT_TRUE(r) << r.error().message();
     const ScanResult& s = r.value();
     ASSERT_TRUE(s.log.qa.has_value());
-    const double rms = outline_rms(s, ph.value()->truth_log());
+    const double rms = outline_rms(s, truth);
     const ScanQa::Stage& outline = stage(*s.log.qa, "outline");
     std::string notes;
     for (const auto& n : outline.notes) notes += n + "; ";
@@ -465,13 +472,10 @@ TEST(ScanLog, ADriedLogsSurfaceUnderBarkIsFoundByTheBarksLevelAndTexture) {
     PhantomOptions o = section_options(480, 0.6, 1600);
     o.moisture = Moisture::kDried;
     if (c == 1) o.ring_contrast_hu = 200, o.noise_hu = 35, o.ring_width_mm = 1.5;
-    auto ph = Phantom::create(truth_log, o);
-    ASSERT_TRUE(ph) << ph.error().message();
-    PhantomSource src(*ph.value(), true);
-    auto r = scan_log(src, ScanOptions{});
+    LogModel truth;
+    auto r = scan_section(truth_log, o, &truth);
     ASSERT_TRUE(r) << r.error().message();
     const ScanResult& s = r.value();
-    const LogModel truth = ph.value()->truth_log();
     ASSERT_EQ(truth.stem.bark_mm.size(), truth.stem.pith.size());
     const double rms = outline_rms(s, truth);
     // The slice's bark (the median over its angles) against the truth's mean bark there.

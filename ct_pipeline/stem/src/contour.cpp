@@ -497,15 +497,20 @@ void refine_weak_bark(const Sampler& img, const Vec2& pith, double h, const Cont
   // Per ray, the pooled split at most `lim` samples deep (0: none) and the pooled means outside
   // and inside it.
   std::vector<double> pooled(t_max + 1), p_out(t_max + 1), p_in(t_max + 1);
+  // Calls f(j) on the usable rays j pooled with ray k; returns how many.
+  auto each_pooled = [&](int k, auto&& f) {
+    int rays = 0;
+    for (int d = -half; d <= half; ++d) {
+      const int j = ((k + d) % n + n) % n;
+      if (usable[j]) ++rays, f(j);
+    }
+    return rays;
+  };
   auto pool = [&](int k, int lim) {  // fills pooled, p_out, p_in for t <= lim; the rays pooled
     std::fill(pooled.begin(), pooled.begin() + lim + 1, 0.0);
     std::fill(p_out.begin(), p_out.begin() + lim + 1, 0.0);
     std::fill(p_in.begin(), p_in.begin() + lim + 1, 0.0);
-    int rays = 0;
-    for (int d = -half; d <= half; ++d) {
-      const int j = ((k + d) % n + n) % n;
-      if (!usable[j]) continue;
-      ++rays;
+    const int rays = each_pooled(k, [&](int j) {
       const double* cj = &cost[static_cast<size_t>(j) * (t_max + 1)];
       const double* p1 = &s1[static_cast<size_t>(j) * (nd + 1)];
       pooled[0] += cj[0];
@@ -514,7 +519,7 @@ void refine_weak_bark(const Sampler& img, const Vec2& pith, double h, const Cont
         p_out[t] += p1[t] / t;
         p_in[t] += (p1[nd] - p1[t]) / (nd - t);
       }
-    }
+    });
     for (int t = 1; t <= lim; ++t) p_out[t] /= rays, p_in[t] /= rays;
     return rays;
   };
@@ -542,14 +547,10 @@ void refine_weak_bark(const Sampler& img, const Vec2& pith, double h, const Cont
   std::vector<double> mean_prof(nd);
   auto subsample = [&](int k, int t) {
     std::fill(mean_prof.begin(), mean_prof.end(), 0.0);
-    int rays = 0;
-    for (int d = -half; d <= half; ++d) {
-      const int j = ((k + d) % n + n) % n;
-      if (!usable[j]) continue;
-      ++rays;
+    const int rays = each_pooled(k, [&](int j) {
       const double* p1 = &s1[static_cast<size_t>(j) * (nd + 1)];
       for (int i = 0; i < nd; ++i) mean_prof[i] += p1[i + 1] - p1[i];
-    }
+    });
     for (double& v : mean_prof) v /= rays;
     const int b0 = t >= 3 ? 1 : 0;  // the first sample may hold air
     const int w1 = std::min(nd, t + std::max(3, static_cast<int>(std::ceil(kWeakLevelMm / h))));
