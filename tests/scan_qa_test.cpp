@@ -389,7 +389,6 @@ TEST(ScanLog, RecordsKeepingOnlyTheQaImagesOutlinesGiveTheSameVerdictAndModel) {
   EXPECT_EQ(sa.knots.knots.size(), sb.knots.knots.size());
 }
 
-// The outline's RMS error (mm) against the phantom's truth over the scanned slices.
 // scan_log on a phantom section of `log` under `o`; the phantom's truth in *truth.
 Result<ScanResult> scan_section(const LogModel& log, const PhantomOptions& o, LogModel* truth) {
   auto ph = Phantom::create(log, o);
@@ -399,6 +398,7 @@ Result<ScanResult> scan_section(const LogModel& log, const PhantomOptions& o, Lo
   return scan_log(src, ScanOptions{});
 }
 
+// The outline's RMS error (mm) against the phantom's truth over the scanned slices.
 double outline_rms(const ScanResult& s, const LogModel& truth) {
   double sum2 = 0;
   long n = 0;

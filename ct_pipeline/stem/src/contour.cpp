@@ -382,10 +382,12 @@ double bark_level(const Sampler& img, const Vec2& pith, double reach, double h,
 //      floored at half the scan's noise); the costs of the rays kWeakPoolDeg either side are
 //      summed (the bark's thickness changes slowly round the log) and the split kept where it
 //      beats no split by a BIC margin with the lighter stretch outside.
-//   3. The slice's typical bark then bounds each ray's: no deeper than twice the median split and
-//      kWeakSpreadMm, and the outer stretch nearer the bark's median level than the wood's (a
-//      knot under the surface, 300 HU denser than dry wood, otherwise makes its rays' best split
-//      at the knot with wood taken for bark): else the best shallower split.
+//   3. All rays' splits are then chosen together, as the least-cost path round the log (each
+//      sample the split moves between neighbouring rays costs kWeakStepCost), with the slice's
+//      typical bark barring splits deeper than twice the median first split and kWeakSpreadMm,
+//      and those whose outer stretch is nearer the wood's median level than the bark's (a knot
+//      under the surface, 300 HU denser than dry wood, otherwise draws its rays' splits down to
+//      it with wood taken for bark).
 //   4. To a fraction of a sample: the crossing nearest the split of the level midway between the
 //      bark and the kWeakLevelMm of wood under it, on the profile averaged over the pooled rays
 //      (the change point puts samples that mix bark and wood on the side with the larger spread).
@@ -494,8 +496,7 @@ void refine_weak_bark(const Sampler& img, const Vec2& pith, double h, const Cont
   }
   const int half = std::max(1, static_cast<int>(std::lround(kWeakPoolDeg * n / 360.0)));
   const double penalty = 3.0 * std::log(static_cast<double>(nd));  // per ray: mean, spread, split
-  // Per ray, the pooled split at most `lim` samples deep (0: none) and the pooled means outside
-  // and inside it.
+  // The pooled costs and the pooled means outside and inside each split of one ray.
   std::vector<double> pooled(t_max + 1), p_out(t_max + 1), p_in(t_max + 1);
   // Calls f(j) on the usable rays j pooled with ray k; returns how many.
   auto each_pooled = [&](int k, auto&& f) {
@@ -535,11 +536,6 @@ void refine_weak_bark(const Sampler& img, const Vec2& pith, double h, const Cont
     *m_in = p_in[best];
     return best;
   };
-  // First every split as deep as kMaxBarkMm. Then, from the slice's typical bark (its median
-  // depth and level) and wood (the level under it): no split deeper than twice the median and
-  // kWeakSpreadMm, and none whose outer stretch is nearer the wood's level than the bark's (a
-  // knot under the surface, denser than the wood by 300 HU when dry, makes the best split of its
-  // rays at the knot, with wood taken for bark, bark or none above it): the next best shallower.
   // The split to a fraction of a sample: the change-point puts samples that mix bark and wood
   // (the scanner's blur) on the side with the larger spread, the bark's when the edge with air is
   // in it. Instead, the crossing nearest the split of the level midway between the bark and the
@@ -567,15 +563,17 @@ void refine_weak_bark(const Sampler& img, const Vec2& pith, double h, const Cont
     }
     return depth;
   };
-  std::vector<int> first(n, 0);
-  std::vector<double> mo(n), mi(n);
+  // The slice's typical bark, from each ray's own best split as deep as kMaxBarkMm: its depth
+  // and level, and the wood's level under it.
   std::vector<float> depths, outs, ins;
-  for (int k = 0; k < n; ++k)
-    if (usable[k] && (first[k] = choose(k, t_max, &mo[k], &mi[k])) > 0) {
-      depths.push_back(static_cast<float>(first[k]));
-      outs.push_back(static_cast<float>(mo[k]));
-      ins.push_back(static_cast<float>(mi[k]));
-    }
+  for (int k = 0; k < n; ++k) {
+    double m_out = 0, m_in = 0;
+    const int t = usable[k] ? choose(k, t_max, &m_out, &m_in) : 0;
+    if (t == 0) continue;
+    depths.push_back(static_cast<float>(t));
+    outs.push_back(static_cast<float>(m_out));
+    ins.push_back(static_cast<float>(m_in));
+  }
   if (depths.size() < 8) return;
   const int lim = std::min(
       t_max, static_cast<int>(std::ceil(2.0 * median_inplace(depths) + kWeakSpreadMm / h)));
@@ -633,8 +631,7 @@ void refine_weak_bark(const Sampler& img, const Vec2& pith, double h, const Cont
   if (with_bark < kWeakBarkShare * rays) return;
   for (int k = 0; k < n; ++k) {
     if (valid[k] && !std::isfinite(r_air[k])) valid[k] = false;
-    if (!usable[k]) continue;
-    if (split[k] == 0) continue;
+    if (!usable[k] || split[k] == 0) continue;
     const double depth = subsample(k, split[k]);
     edge_r[k] = r_air[k] - depth;
     bark_mm[k] = depth;
