@@ -210,11 +210,23 @@ BoardGrade grade_board(const Board& board, const GradingRules& rules) {
 
 int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
                 const GradingRules& rules) {
+  return piece_grade(board, z0, z1, wane, rules, counted_knots(board, rules));
+}
+
+std::vector<int> counted_knots(const Board& board, const GradingRules& rules) {
+  std::vector<int> out;
+  for (size_t i = 0; i < board.knots.size(); ++i)
+    if (!(board.knots[i].width_mm < rules.min_knot_mm)) out.push_back(static_cast<int>(i));
+  return out;
+}
+
+int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
+                const GradingRules& rules, const std::vector<int>& counted) {
   GradeInput in;
-  for (size_t i = 0; i < board.knots.size(); ++i) {
+  for (const int i : counted) {
     const KnotOnSide& k = board.knots[i];
     if (k.z_mm < z0 || k.z_mm > z1) continue;  // as cut_board() keeps them
-    count_knot(k, static_cast<int>(i), rules, &in.st);
+    count_knot(k, i, rules, &in.st);
   }
   in.wane = wane.data();
   in.length_mm = z1 - z0;

@@ -127,6 +127,9 @@ void SawLog::release_tables() {
   for (auto* v : {&smin2_, &smax2_, &run_min_, &run_max_}) std::vector<float>().swap(*v);
   std::vector<Vec2>().swap(line_at_slice_);
   std::vector<KnotPolyline>().swap(knots_);
+  std::vector<Vec2>().swap(dir_);
+  std::vector<int>().swap(bin_entry_);
+  na_ = 0;
 }
 
 void SawLog::build(int knot_samples) {
@@ -144,6 +147,25 @@ void SawLog::build(int knot_samples) {
     const double hi = rad.empty() ? 0.0 : *std::max_element(rad.begin(), rad.end());
     rmin2_[i] = lo * lo;
     rmax2_[i] = hi * hi;
+  }
+  // The exact look-up's directions and diamond-angle bins (radius_towards), where every sample
+  // has the same number of angles.
+  na_ = n > 0 ? static_cast<int>(stem.radius[0].size()) : 0;
+  for (int i = 1; i < n && na_ > 0; ++i)
+    if (static_cast<int>(stem.radius[i].size()) != na_) na_ = 0;
+  if (na_ < kMinSeriesAngles) na_ = 0;
+  dir_.clear();
+  bin_entry_.clear();
+  if (na_ > 0) {
+    for (int k = 0; k <= na_; ++k) {
+      const double w = kTwoPi * (k % na_) / na_;
+      dir_.push_back({std::cos(w), std::sin(w)});
+    }
+    for (int b = 0; b < kDiamondBins; ++b) {
+      const double d = 4.0 * b / kDiamondBins, q = std::floor(d), f = d - q;
+      const double w = q * 0.5 * kPi + std::atan2(f, 1 - f);
+      bin_entry_.push_back(std::min(static_cast<int>(w * na_ / kTwoPi), na_ - 1));
+    }
   }
   line_at_slice_.resize(n);
   for (int i = 0; i < n; ++i) line_at_slice_[i] = line_at(stem.z_at(i));

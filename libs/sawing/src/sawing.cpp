@@ -39,6 +39,10 @@ namespace {
 
 constexpr int kMaxRootSteps = 24;
 
+// √(a² + b²) without std::hypot's care for overflow (lengths in mm and unit vectors here; hypot
+// was 3 % of a through-and-through position's time).
+inline double length2(double a, double b) { return std::sqrt(a * a + b * b); }
+
 // Pattern frame <-> log frame for one position.
 struct Placement {
   const SawLog* log;
@@ -121,7 +125,7 @@ double cross(const Placement& pl, int i, double au, double av, double bu, double
              Decide&& decide, int* decided) {
   double lo = 0, hi = 1;  // g(lo) > 0 outside, g(hi) ≤ 0 inside
   double glo = pl.outside_by(i, au, av), ghi = pl.outside_by(i, bu, bv);
-  const double seg = std::hypot(bu - au, bv - av);
+  const double seg = length2(bu - au, bv - av);
   int side = 0;
   for (int k = 0; k < kMaxRootSteps && (hi - lo) * seg > 0.01; ++k) {
     if (const int d = decide(lo, hi)) {
@@ -149,26 +153,76 @@ double cross(const Placement& pl, int i, double au, double av, double bu, double
 
 constexpr auto kNoDecision = [](double, double) { return 0; };
 
-// Lengths of segment P→Q (length len) lying outside the log, measured from each end.
+// Fraction of the way from an outside end A to an inside point B at which the outline is
+// crossed, by Newton's method from f0 (where the outline crossed the same side at the
+// neighbouring stem sample, a fraction of a millimetre away as a rule): f in (0, 1) with
+// |g| < 1e-4 mm, or the step after one shorter than 0.002 mm (quadratic convergence puts it
+// within 1e-5 mm of the outline); −1 when neither happens within 4 steps (then cross()).
+double newton_cross(const Placement& pl, int i, double au, double av, double bu, double bv,
+                    double f0) {
+  const double eu = bu - au, ev = bv - av;
+  const double ex = pl.c * eu + pl.s * ev, ey = -pl.s * eu + pl.c * ev;  // e in the log frame
+  const double len = length2(eu, ev);
+  double f = f0;
+  for (int k = 0; k < 4; ++k) {
+    if (!(f > 0 && f < 1)) return -1;
+    const Vec2 p = pl.to_log(i, au + f * eu, av + f * ev);
+    double d;
+    const double g = pl.log->outside_by(i, p.x, p.y, ex, ey, &d);
+    if (std::abs(g) < 1e-4) return f;
+    if (!(std::abs(d) > 1e-9)) return -1;
+    const double step = g / d;
+    f -= step;
+    if (std::abs(step) * len < 0.002) return f > 0 && f < 1 ? f : -1;
+  }
+  return -1;
+}
+
+// Distance from outside end A (towards B, length len) to the crossing: from the neighbouring
+// sample's crossing `*near` (mm from A, < 0: none) by Newton's method where it converges, else
+// the bracketed search; *near is set to the answer.
+double cross_near(const Placement& pl, int i, double au, double av, double bu, double bv,
+                  double len, double* near) {
+  double f = -1;
+  if (near && *near > 0 && *near < len) f = newton_cross(pl, i, au, av, bu, bv, *near / len);
+  if (f < 0) {
+    int unused = 0;
+    f = cross(pl, i, au, av, bu, bv, kNoDecision, &unused);
+  }
+  if (near) *near = len * f;
+  return len * f;
+}
+
+// Lengths of segment P→Q (length len) lying outside the log, measured from each end. `track`,
+// when given, holds per end the crossing's distance from it at the neighbouring stem sample
+// (< 0: none) for the search to start from, and is updated.
 void outside_ends(const Placement& pl, int i, double pu, double pv, bool pin, double qu, double qv,
-                  bool qin, double len, double* out_p, double* out_q) {
+                  bool qin, double len, double* out_p, double* out_q, double* track = nullptr) {
   *out_p = *out_q = 0;
-  if (pin && qin) return;
-  int unused = 0;
+  double none[2] = {-1, -1};
+  double* tr = track ? track : none;
+  if (pin && qin) {
+    tr[0] = tr[1] = -1;
+    return;
+  }
   if (!pin && !qin) {
     const double mu = 0.5 * (pu + qu), mv = 0.5 * (pv + qv);
     if (!pl.inside(i, mu, mv)) {
       *out_p = *out_q = 0.5 * len;
+      tr[0] = tr[1] = -1;
       return;
     }
-    *out_p = 0.5 * len * cross(pl, i, pu, pv, mu, mv, kNoDecision, &unused);
-    *out_q = 0.5 * len * cross(pl, i, qu, qv, mu, mv, kNoDecision, &unused);
+    *out_p = cross_near(pl, i, pu, pv, mu, mv, 0.5 * len, &tr[0]);
+    *out_q = cross_near(pl, i, qu, qv, mu, mv, 0.5 * len, &tr[1]);
     return;
   }
-  if (!pin)
-    *out_p = len * cross(pl, i, pu, pv, qu, qv, kNoDecision, &unused);
-  else
-    *out_q = len * cross(pl, i, qu, qv, pu, pv, kNoDecision, &unused);
+  if (!pin) {
+    *out_p = cross_near(pl, i, pu, pv, qu, qv, len, &tr[0]);
+    tr[1] = -1;
+  } else {
+    *out_q = cross_near(pl, i, qu, qv, pu, pv, len, &tr[1]);
+    tr[0] = -1;
+  }
 }
 
 // Whether the wane x = out_p + out_q of segment P→Q (as outside_ends computes it) keeps
@@ -272,11 +326,14 @@ struct SliceWane {
 
 // Wane of a section at stem sample i. `corners`, when ≥ 0, holds in its bits 0–3 what inside()
 // answers at the four corners (slice_ok looked them up at this section and sample).
+// `track` (8 numbers, per side and end as outside_ends takes them, all < 0 to begin with) carries
+// the crossings from one stem sample to the next along a board.
 void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules, int i,
-                SliceWane* out, int corners = -1) {
+                SliceWane* out, int corners = -1, double* track = nullptr) {
   const double hu = sec.ta == 0 ? sec.ht : sec.hw, hv = sec.ta == 0 ? sec.hw : sec.ht;
   if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv)) {
     *out = SliceWane{{0, 0, 0, 0}, 0, true};
+    if (track) std::fill_n(track, 8, -1.0);
     return;
   }
   // Corners: 0 (+t, −w), 1 (+t, +w), 2 (−t, +w), 3 (−t, −w).
@@ -292,14 +349,18 @@ void slice_wane(const Placement& pl, const Section& sec, const WaneRules& rules,
   SliceWane& sw = *out;
   if (in[0] && in[1] && in[2] && in[3]) {  // a convex outline holding every corner: no wane
     sw = SliceWane{{0, 0, 0, 0}, 0, true};
+    if (track) std::fill_n(track, 8, -1.0);
     return;
   }
   // Sides as corner pairs: face+ 0→1, face− 3→2, edge+ 2→1, edge− 3→0 (P end first).
   double e[4][2];
-  outside_ends(pl, i, cu[0], cv[0], in[0], cu[1], cv[1], in[1], w, &e[0][0], &e[0][1]);
-  outside_ends(pl, i, cu[3], cv[3], in[3], cu[2], cv[2], in[2], w, &e[1][0], &e[1][1]);
-  outside_ends(pl, i, cu[2], cv[2], in[2], cu[1], cv[1], in[1], t, &e[2][0], &e[2][1]);
-  outside_ends(pl, i, cu[3], cv[3], in[3], cu[0], cv[0], in[0], t, &e[3][0], &e[3][1]);
+  double* tr[4] = {nullptr, nullptr, nullptr, nullptr};
+  if (track)
+    for (int k = 0; k < 4; ++k) tr[k] = track + 2 * k;
+  outside_ends(pl, i, cu[0], cv[0], in[0], cu[1], cv[1], in[1], w, &e[0][0], &e[0][1], tr[0]);
+  outside_ends(pl, i, cu[3], cv[3], in[3], cu[2], cv[2], in[2], w, &e[1][0], &e[1][1], tr[1]);
+  outside_ends(pl, i, cu[2], cv[2], in[2], cu[1], cv[1], in[1], t, &e[2][0], &e[2][1], tr[2]);
+  outside_ends(pl, i, cu[3], cv[3], in[3], cu[0], cv[0], in[0], t, &e[3][0], &e[3][1], tr[3]);
   for (int k = 0; k < 4; ++k) sw.side[k] = e[k][0] + e[k][1];
   // Missing area: a right triangle at each corner, legs = the wane on its face and edge ends.
   sw.area = 0.5 * (e[0][1] * e[2][1] + e[0][0] * e[3][1] + e[1][1] * e[2][0] + e[1][0] * e[3][0]);
@@ -354,8 +415,7 @@ bool slice_ok(const Placement& pl, const Section& sec, const WaneRules& rules, i
 // be any run or none. Otherwise it is the first longest run, as a scan from sample 0 finds it.
 // Only a run longer than the best so far (and than min_run) can change the answer, and such a
 // run holds the sample that many places on from where it could start: that sample is asked
-// first, and only a run through it is followed out (ok() may be costly: edging's lazy
-// bisection).
+// first, and only a run through it is followed out (ok() may be costly: edging's wane tests).
 // The length a run of `run_mm` is trimmed to: whole length steps (none: as it is).
 double trimmed_length(double run_mm, const WaneRules& rules) {
   return rules.length_step_mm > 0
@@ -500,7 +560,7 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
   thread_local std::vector<char> ok;
   thread_local std::vector<SliceWane> sw;
   thread_local std::vector<double> widths;
-  thread_local std::vector<std::array<int, 2>> bracket;  // edging's bisection per stem sample
+  thread_local std::vector<std::uint8_t> state;  // edging's tests per stem sample and width
   // Per stem sample, bit j: slice_ok at widths[j] found no wane at all (edged boards).
   thread_local std::vector<std::uint64_t> clear;
   // Per stem sample, 5 bits per width index j < 12: slice_ok at widths[j] looked up the corners
@@ -543,45 +603,40 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
       if (trim(stem, n, acceptable, pattern.wane, 1, &best_zb, &best_ze))
         best_value = best_w * (best_ze - best_zb);
     } else {
-      // Edging: at each stem sample the widest acceptable width, by bisection over the sorted
-      // widths (acceptance shrinks as the width grows on a convex outline); then the width whose
-      // trimmed board holds the most wood.
-      // The bisection runs lazily: a sample's bisection is carried on only until it tells
-      // whether its widest acceptable width reaches the width being trimmed, and only for the
-      // samples trim() asks about. Its steps are those of the full bisection, in the same order,
-      // so every answer is the one the full bisection gives (the outline need not be convex for
-      // that); only steps no width asks about are left out. A section surely inside at the
-      // widest width (rect_surely_inside, monotone in the width) passes every step: its bracket
-      // is set at once.
+      // Edging: the width whose trimmed board holds the most wood, where a stem sample counts
+      // for width k when the section at that width keeps to the wane rules there (slice_ok).
+      // Each (sample, width) is tested only when trim() asks for it, once: trim() asks few
+      // samples, mostly at one width (the guess below). A section surely inside at the widest
+      // width (rect_surely_inside, monotone in the width) passes at every width untested.
+      // (Until 2026-12-07 a sample's widths were bisected, which assumes that acceptance
+      // shrinks as the width grows, true on a convex outline; asking each width directly is
+      // the definition itself, and on the through-and-through pattern a third fewer tests. The
+      // boards were the same at every position of saw_bench --dump.)
       const int m = static_cast<int>(widths.size());
-      bracket.resize(n);
+      state.assign(static_cast<size_t>(n) * m, 0);  // [sample × m + width]: 0 untested, 1 ok, 2 not
       clear.assign(n, 0);
       corner_bits.assign(n, 0);
       {
         const double hu = sec.ta == 0 ? sec.ht : 0.5 * widths[m - 1];
         const double hv = sec.ta == 0 ? 0.5 * widths[m - 1] : sec.ht;
-        for (int i = 0; i < n; ++i) {
-          // widths[lo] acceptable (or none), widths[hi] not: the answer lies in [lo, hi − 1].
-          bracket[i] = {-1, m};
+        for (int i = 0; i < n; ++i)
           if (pl.rect_surely_inside(i, sec.cu - hu, sec.cu + hu, sec.cv - hv, sec.cv + hv)) {
-            bracket[i] = {m - 1, m};
+            std::fill_n(state.begin() + static_cast<size_t>(i) * m, m, 1);
             clear[i] = ~std::uint64_t{0};
           }
-        }
       }
       const auto wide_enough_at = [&](int i, int k) {
-        std::array<int, 2>& b = bracket[i];
-        while (b[0] < k && b[1] > k) {
-          const int mid = (b[0] + b[1]) / 2;
-          sec.hw = 0.5 * widths[mid];
+        std::uint8_t& st = state[static_cast<size_t>(i) * m + k];
+        if (st == 0) {
+          sec.hw = 0.5 * widths[k];
           bool no_wane;
           int corners;
-          (slice_ok(pl, sec, pattern.wane, i, &no_wane, &corners) ? b[0] : b[1]) = mid;
-          if (no_wane && mid < 64) clear[i] |= std::uint64_t{1} << mid;
-          if (corners >= 0 && mid < 12)
-            corner_bits[i] |= static_cast<std::uint64_t>(corners | 16) << 5 * mid;
+          st = slice_ok(pl, sec, pattern.wane, i, &no_wane, &corners) ? 1 : 2;
+          if (no_wane && k < 64) clear[i] |= std::uint64_t{1} << k;
+          if (corners >= 0 && k < 12)
+            corner_bits[i] |= static_cast<std::uint64_t>(corners | 16) << 5 * k;
         }
-        return b[0] >= k;
+        return st == 1;
       };
       // The width this board got at the thread's last position is tried first (the optimiser's
       // next position is usually the same rotation at the next offset): when it is the one
@@ -650,6 +705,10 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
     b.sawn_begin = best_zb;
     b.sawn_end = best_ze;
     double missing = 0;
+    // The crossings of the last sample computed, where the search at the next starts (edged
+    // boards; a single width's wane decided its trimming above, with the plain search).
+    double track[8] = {-1, -1, -1, -1, -1, -1, -1, -1};
+    b.slabs.reserve(static_cast<size_t>((best_ze - best_zb) / stem.dz_mm) + 2);
     for (int i = 0; i < n; ++i) {
       const double z = stem.z_at(i);
       const double s0 = std::max(z - 0.5 * stem.dz_mm, best_zb);
@@ -664,7 +723,7 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
       else {
         const int cb =
             best_k >= 0 && best_k < 12 ? static_cast<int>(corner_bits[i] >> 5 * best_k & 31) : 0;
-        slice_wane(pl, sec, pattern.wane, i, &here, cb & 16 ? cb & 15 : -1);
+        slice_wane(pl, sec, pattern.wane, i, &here, cb & 16 ? cb & 15 : -1, track);
       }
       missing += here.area * ov;
       BoardSlab slab{s0, s1, {}, static_cast<float>(here.area)};
@@ -717,10 +776,13 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
           // change, found by bisection.
           const bool neg0 = f[0] - sp.c < 0;
           if ((f[pk.count - 1] - sp.c < 0) != neg0) {
-            int lo = 0, hi = pk.count - 1;  // sign at lo is neg0, at hi not
-            while (hi - lo > 1) {
-              const int mid = (lo + hi) / 2;
-              ((f[mid] - sp.c < 0) == neg0 ? lo : hi) = mid;
+            // The sign at lo is neg0, at lo + len not; written without a branch on the data
+            // (the bisection's steps are unpredictable).
+            int lo = 0, len = pk.count - 1;
+            while (len > 1) {
+              const int half = len / 2;
+              lo = (f[lo + half] - sp.c < 0) == neg0 ? lo + half : lo;
+              len -= half;
             }
             crossings.push_back(lo);
           }
@@ -749,7 +811,7 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
           // Ellipse in the side plane, coordinates (across, z): major axis along the axis's
           // projection M, minor along m ⟂ M.
           double Mo = dox, Mz = d.z;
-          const double mn = std::hypot(Mo, Mz);
+          const double mn = length2(Mo, Mz);
           if (mn < 1e-12) {
             Mo = 1;
             Mz = 0;
@@ -758,8 +820,8 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
             Mz /= mn;
           }
           const double a = 0.5 * minor, bb = 0.5 * major;
-          const double ho = std::hypot(a * Mz, bb * Mo);  // m = (−Mz, Mo)
-          const double hz = std::hypot(a * Mo, bb * Mz);
+          const double ho = length2(a * Mz, bb * Mo);  // m = (−Mz, Mo)
+          const double hz = length2(a * Mo, bb * Mz);
           const double xo = oa == 0 ? x.x : x.y;
           if (xo + ho < sp.e0 || xo - ho > sp.e1) continue;
           if (x.z + hz < best_zb || x.z - hz > best_ze) continue;
@@ -799,9 +861,22 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         }
       }
     }
-    std::sort(b.knots.begin(), b.knots.end(), [](const KnotOnSide& l, const KnotOnSide& r) {
-      return l.side != r.side ? l.side < r.side : l.z_mm < r.z_mm;
+    // By side, then z: the indices sorted, then the knots gathered in their order (a KnotOnSide
+    // is large to move about); equal keys keep the order they were found in.
+    thread_local std::vector<int> order;
+    thread_local std::vector<KnotOnSide> gathered;
+    order.resize(b.knots.size());
+    for (size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+    std::sort(order.begin(), order.end(), [&](int l, int r) {
+      const KnotOnSide& x = b.knots[l];
+      const KnotOnSide& y = b.knots[r];
+      if (x.side != y.side) return x.side < y.side;
+      if (x.z_mm != y.z_mm) return x.z_mm < y.z_mm;
+      return l < r;
     });
+    gathered.clear();
+    for (const int k : order) gathered.push_back(b.knots[k]);
+    b.knots.swap(gathered);
     res.volume_m3 += b.volume_m3;
     res.boards.push_back(std::move(b));
   }

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -117,7 +118,8 @@ class PieceWane {
     std::sort(pts_.begin(), pts_.end());
     pts_.erase(std::unique(pts_.begin(), pts_.end()), pts_.end());
     const size_t m = pts_.size();
-    max_.assign(m, {0, 0, 0, 0});
+    runs_.assign(1, std::vector<std::array<double, 4>>(m, {0, 0, 0, 0}));
+    std::vector<std::array<double, 4>>& each = runs_[0];
     sum_.assign(m, {0, 0, 0, 0, 0});  // at point p: ∫ from pts_[0] of missing, wane length ×4
     std::array<double, 5> run{0, 0, 0, 0, 0};
     size_t s = 0;
@@ -130,11 +132,19 @@ class PieceWane {
         if (ov <= 0) continue;
         run[0] += sl.missing_mm2 * ov;
         for (int k = 0; k < 4; ++k) {
-          max_[e][k] = std::max(max_[e][k], static_cast<double>(sl.wane[k]));
+          each[e][k] = std::max(each[e][k], static_cast<double>(sl.wane[k]));
           if (sl.wane[k] > 0) run[1 + k] += ov;
         }
       }
       sum_[e + 1] = run;
+    }
+    for (size_t l = 1; (size_t{1} << l) < m; ++l) {
+      const std::vector<std::array<double, 4>>& below = runs_[l - 1];
+      std::vector<std::array<double, 4>> level(m - (size_t{1} << l) + 1);
+      const size_t half = size_t{1} << (l - 1);
+      for (size_t e = 0; e < level.size(); ++e)
+        for (int k = 0; k < 4; ++k) level[e][k] = std::max(below[e][k], below[e + half][k]);
+      runs_.push_back(std::move(level));
     }
   }
   // Index of a cut point (one of the A_i or B_j it was built with).
@@ -142,11 +152,17 @@ class PieceWane {
     return static_cast<int>(std::lower_bound(pts_.begin(), pts_.end(), z) - pts_.begin());
   }
   // The piece between points p0 < p1: its wane per side and its missing area × length (mm³).
+  // The largest wane over intervals [p0, p1) from two overlapping power-of-two runs (the same
+  // maximum as a loop over them).
   double piece(int p0, int p1, std::array<SideWane, 4>* wane) const {
+    if (p1 <= p0) {
+      *wane = {};
+      return 0;
+    }
+    const int l = std::bit_width(static_cast<unsigned>(p1 - p0)) - 1;
+    const std::vector<std::array<double, 4>>& run = runs_[l];
     for (int k = 0; k < 4; ++k) {
-      double mx = 0;
-      for (int e = p0; e < p1; ++e) mx = std::max(mx, max_[e][k]);
-      (*wane)[k].max_mm = mx;
+      (*wane)[k].max_mm = std::max(run[p0][k], run[p1 - (1 << l)][k]);
       (*wane)[k].length_mm = sum_[p1][1 + k] - sum_[p0][1 + k];
     }
     return sum_[p1][0] - sum_[p0][0];
@@ -154,7 +170,8 @@ class PieceWane {
 
  private:
   std::vector<double> pts_;
-  std::vector<std::array<double, 4>> max_;
+  // runs_[l][e]: per side the largest wane over intervals e .. e + 2^l − 1 (runs_[0]: each one).
+  std::vector<std::vector<std::array<double, 4>>> runs_;
   std::vector<std::array<double, 5>> sum_;
 };
 
@@ -210,6 +227,7 @@ void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable&
       need_j = static_cast<int>(std::floor((b.z_end - z) / step)) + 1;
     }
     const PieceWane pieces(b, step, steps);
+    const std::vector<int> counted = counted_knots(b, rules);
     std::array<SideWane, 4> wane;
     for (int i = 0; i <= steps; ++i) {
       if (i > 0 && !has[0][i]) continue;
@@ -224,7 +242,7 @@ void trim_to_value(SawResult& sawn, const GradingRules& rules, const PriceTable&
         if (top * b.volume_m3 * (z1 - z0) / len <= best) break;
         const double missing = pieces.piece(p0, pieces.at(z1), &wane);
         const double volume = b.thickness_mm * b.width_mm * (z1 - z0) * 1e-9 - missing * 1e-9;
-        const double v = volume * price[piece_grade(b, z0, z1, wane, rules)];
+        const double v = volume * price[piece_grade(b, z0, z1, wane, rules, counted)];
         if (v > best + 1e-12) best = v, best_z0 = z0, best_z1 = z1;
       }
     }

@@ -100,6 +100,11 @@ BoardGrade grade_board(const Board& board, const GradingRules& rules);
 // from the slabs). For cross-cutting to value (trim_to_value), which tries many pieces.
 int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
                 const GradingRules& rules);
+// The same, looking only at the knots listed in `counted` (indices into board.knots, in order):
+// counted_knots(), the knots at least rules.min_knot_mm wide, the only ones the rules count.
+int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
+                const GradingRules& rules, const std::vector<int>& counted);
+std::vector<int> counted_knots(const Board& board, const GradingRules& rules);
 // e.g. "dead knot 34 mm on face+ at 1.20 m > 25 mm allowed in A4"; "none" for kNone.
 std::string describe(const GradeLimit& limit, const GradingRules& rules);
 
