@@ -277,6 +277,52 @@ TEST(KnotFit, DarkRingsPlaceRDeadWhereTheDiameterCannot) {
   EXPECT_GT(with_ok, without_ok);
 }
 
+// r_dead from the core's density (KnotShell::core_hu), where the diameters cannot tell (the
+// knot's growth has nearly stopped, exponent 0.1): green wood, the dead part 180 HU lighter and
+// the last two shells reaching the bark's HU level higher again; dried wood, the dead part only
+// 40 HU lighter but far above the core HU's scatter (5 HU); and sound knots whose core HU only
+// scatters (green, σ 25 HU) or drifts by 20 HU along the knot (dried, σ 5 HU).
+TEST(KnotFit, CoreDensityStepPlacesRDead) {
+  const Knot dead = make_knot(600, 5.0, 0.2, 2.0, 0.0, 70, 120, 20, 0.1);
+  const Knot sound = make_knot(600, 5.0, 0.2, 2.0, 0.0, 120, 120, 20, 0.1);
+  struct Core {
+    const char* name;
+    const Knot* knot;
+    double sound_hu, dead_hu, sigma_hu, drift_hu, last_two_hu;
+  };
+  const Core cores[] = {
+      {"green dead, bark at the end", &dead, 0, -180, 25, 0, 60},
+      {"dried dead, 40 HU step", &dead, -280, -320, 5, 0, -280},
+      {"green sound", &sound, 0, 0, 25, 0, 0},
+      {"dried sound, drifting", &sound, -280, -280, 5, -20, -280},
+  };
+  constexpr int kSeeds = 10;
+  for (const Core& c : cores) {
+    int right = 0;
+    double worst = 0;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+      KnotTrace t = make_trace(*c.knot, seed);
+      std::mt19937 rng(1000 + seed);
+      std::normal_distribution<double> gauss(0.0, c.sigma_hu);
+      const int n = static_cast<int>(t.shells.size());
+      for (int i = 0; i < n; ++i) {
+        KnotShell& s = t.shells[i];
+        const double along = s.r / c.knot->r_end;
+        s.core_hu =
+            (c.knot->dead_at(s.r) ? c.dead_hu : c.sound_hu) + c.drift_hu * along + gauss(rng);
+        if (i >= n - 2) s.core_hu = c.last_two_hu + gauss(rng);
+      }
+      Result<KnotFitReport> fit = fit_knot(t);
+      ASSERT_TRUE(fit) << fit.error().message();
+      const double err = std::abs(fit.value().knot.r_dead - c.knot->r_dead);
+      worst = std::max(worst, err);
+      right += err <= 3.0 ? 1 : 0;
+    }
+    std::printf("%-28s r_dead within 3 mm on %d/%d, worst %.1f mm\n", c.name, right, kSeeds, worst);
+    EXPECT_EQ(right, kSeeds) << c.name;
+  }
+}
+
 TEST(KnotFit, SurfaceKnotEndsAtItsLastShell) {
   const Knot k = cases()[1].knot;
   KnotTrace t = make_trace(k, 3);

@@ -56,13 +56,22 @@ struct Shell {
 
 // r_dead from the knot's own density: a dead knot is drier and lighter than the sound knot it
 // grew from, whatever the wood around it (sound ~1000 kg/m³, dead ~820: a step of well over
-// kDeadStepHu), while the diameter's kink at r_dead is often within the noise. Along the
-// shells, the core HU (running median over kCoreWindow shells, the first kCoreSkipMm left out:
-// blur around the pith) is compared with its level over the outer part of the knot; a knot is
-// dead where the level there lies kDeadStepHu or more below the highest level inside, and
-// r_dead is the last shell whose level is above the midpoint. Returns NaN when too few shells
-// have a core HU (the caller then decides from the diameters), r_end when the knot is sound.
+// kDeadStepHu in green wood), while the diameter's kink at r_dead is often within the noise.
+// Along the shells, the core HU (running median over kCoreWindow shells, the first kCoreSkipMm
+// left out: blur around the pith) is compared with its level over the outer part of the knot; a
+// knot is dead where the level there lies kDeadStepHu or more below the highest level inside,
+// or at least kMinDeadStepHu and kDeadStepSigmas times the core HU's scatter below it (in dried
+// wood the dead knot dries with the wood around it, and the step is a few tens of HU). r_dead
+// is then where the level falls below the midpoint for good: the split after the highest level
+// that leaves the fewest levels on the wrong side of the midpoint. Returns NaN when too few
+// shells have a core HU (the caller then decides from the diameters), r_end when the knot is
+// sound.
+// (Until 2026-12-07: the last shell above the midpoint, which a level rising again over the
+// knot's last shells, where it reaches the bark, moved to r_end: a third of the dead knots the
+// fine scans of the sweep called sound had a step of 80 HU or more.)
 constexpr double kDeadStepHu = 80.0;
+constexpr double kMinDeadStepHu = 30.0;
+constexpr double kDeadStepSigmas = 5.0;
 constexpr int kCoreWindow = 5;
 constexpr double kCoreSkipMm = 10.0;
 constexpr int kMinCoreShells = 8;
@@ -84,19 +93,29 @@ double r_dead_from_density(const std::vector<Shell>& shells, double r_end, doubl
   const int outer_from = std::min(n - 1, static_cast<int>(n * (1.0 - kOuterFraction)));
   std::vector<double> outer(level.begin() + outer_from, level.end());
   const double dead_level = median_inplace(outer);
-  const double peak = *std::max_element(level.begin(), level.begin() + outer_from + 1);
+  const int peak = static_cast<int>(
+      std::max_element(level.begin(), level.begin() + outer_from + 1) - level.begin());
   std::vector<double> dev(v.size());
   for (int i = 0; i < n; ++i) dev[i] = std::abs(v[i].second - level[i]);
-  *step_hu = peak - dead_level;
+  *step_hu = level[peak] - dead_level;
   *noise_hu = kMadToSigma * median_inplace(dev);
-  if (peak - dead_level < kDeadStepHu) return r_end;
-  const double mid = 0.5 * (peak + dead_level);
-  int last = -1;
-  for (int i = 0; i < n; ++i)
-    if (level[i] >= mid) last = i;
-  if (last < 0 || last == n - 1) return r_end;
-  // Between the last shell above the midpoint and the next one.
-  return 0.5 * (v[last].first + v[last + 1].first);
+  const bool step = *step_hu >= kDeadStepHu ||
+                    (*step_hu >= kMinDeadStepHu && *step_hu >= kDeadStepSigmas * *noise_hu);
+  if (!step) return r_end;
+  // The split after the peak that leaves the fewest levels on the wrong side of the midpoint
+  // (at or above it after the split, below it before): a level rising again over the knot's
+  // last shells costs those shells only.
+  const double mid = 0.5 * (level[peak] + dead_level);
+  int wrong = 0;  // levels at or above the midpoint after the split (split = peak + 1)
+  for (int i = peak + 1; i < n; ++i) wrong += level[i] >= mid;
+  int split = peak + 1, best = wrong;
+  for (int t = peak + 2; t <= n; ++t) {
+    wrong += (level[t - 1] < mid) - (level[t - 1] >= mid);
+    if (wrong < best) best = wrong, split = t;
+  }
+  if (split >= n) return r_end;
+  // Between the last sound shell and the first dead one.
+  return 0.5 * (v[split - 1].first + v[split].first);
 }
 
 using AxisParams = std::array<double, 5>;  // z0, a, b, omega0, twist
