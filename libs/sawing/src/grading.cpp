@@ -208,11 +208,6 @@ BoardGrade grade_board(const Board& board, const GradingRules& rules) {
   return grade_input(in, board.knots, rules);
 }
 
-int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
-                const GradingRules& rules) {
-  return piece_grade(board, z0, z1, wane, rules, counted_knots(board, rules));
-}
-
 std::vector<int> counted_knots(const Board& board, const GradingRules& rules) {
   std::vector<int> out;
   for (size_t i = 0; i < board.knots.size(); ++i)

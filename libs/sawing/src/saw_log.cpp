@@ -21,6 +21,13 @@ float float_above(double v) {
   return static_cast<double>(f) < v ? std::nextafter(f, HUGE_VALF) : f;
 }
 
+// The azimuth (rad) of diamond angle d in [0, 4) (detail::diamond's inverse): quadrant
+// floor(d), fraction f within it at atan2(f, 1 − f).
+double diamond_azimuth(double d) {
+  const double q = std::floor(d), f = d - q;
+  return q * 0.5 * kPi + std::atan2(f, 1 - f);
+}
+
 }  // namespace
 
 Vec2 outline_centre(const Stem& stem, int i) {
@@ -162,8 +169,7 @@ void SawLog::build(int knot_samples) {
       dir_.push_back({std::cos(w), std::sin(w)});
     }
     for (int b = 0; b < kDiamondBins; ++b) {
-      const double d = 4.0 * b / kDiamondBins, q = std::floor(d), f = d - q;
-      const double w = q * 0.5 * kPi + std::atan2(f, 1 - f);
+      const double w = diamond_azimuth(4.0 * b / kDiamondBins);
       bin_entry_.push_back(std::min(static_cast<int>(w * na_ / kTwoPi), na_ - 1));
     }
   }
@@ -184,12 +190,8 @@ void SawLog::build(int knot_samples) {
     const int na = static_cast<int>(rad.size());
     if (na == 0) continue;
     for (int j = 0; j < kSectors; ++j) {
-      auto azimuth = [](double d) {
-        const double q = std::floor(d), f = d - q;
-        return q * 0.5 * kPi + std::atan2(f, 1 - f);
-      };
-      const double w0 = azimuth(4.0 * j / kSectors) - 1e-6;
-      const double w1 = azimuth(4.0 * (j + 1) / kSectors) + 1e-6;
+      const double w0 = diamond_azimuth(4.0 * j / kSectors) - 1e-6;
+      const double w1 = diamond_azimuth(4.0 * (j + 1) / kSectors) + 1e-6;
       const long k0 = static_cast<long>(std::floor(w0 * na / kTwoPi));
       const long k1 = static_cast<long>(std::floor(w1 * na / kTwoPi)) + 1;
       double lo = 1e300, hi = 0;

@@ -183,14 +183,13 @@ double newton_cross(const Placement& pl, int i, double au, double av, double bu,
 // the bracketed search; *near is set to the answer.
 double cross_near(const Placement& pl, int i, double au, double av, double bu, double bv,
                   double len, double* near) {
-  double f = -1;
-  if (near && *near > 0 && *near < len) f = newton_cross(pl, i, au, av, bu, bv, *near / len);
+  double f = *near > 0 && *near < len ? newton_cross(pl, i, au, av, bu, bv, *near / len) : -1;
   if (f < 0) {
     int unused = 0;
     f = cross(pl, i, au, av, bu, bv, kNoDecision, &unused);
   }
-  if (near) *near = len * f;
-  return len * f;
+  *near = len * f;
+  return *near;
 }
 
 // Lengths of segment P→Q (length len) lying outside the log, measured from each end. `track`,
@@ -861,22 +860,9 @@ SawResult saw(const SawLog& log, const Pattern& pattern, const LogPosition& pos)
         }
       }
     }
-    // By side, then z: the indices sorted, then the knots gathered in their order (a KnotOnSide
-    // is large to move about); equal keys keep the order they were found in.
-    thread_local std::vector<int> order;
-    thread_local std::vector<KnotOnSide> gathered;
-    order.resize(b.knots.size());
-    for (size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
-    std::sort(order.begin(), order.end(), [&](int l, int r) {
-      const KnotOnSide& x = b.knots[l];
-      const KnotOnSide& y = b.knots[r];
-      if (x.side != y.side) return x.side < y.side;
-      if (x.z_mm != y.z_mm) return x.z_mm < y.z_mm;
-      return l < r;
+    std::sort(b.knots.begin(), b.knots.end(), [](const KnotOnSide& l, const KnotOnSide& r) {
+      return l.side != r.side ? l.side < r.side : l.z_mm < r.z_mm;
     });
-    gathered.clear();
-    for (const int k : order) gathered.push_back(b.knots[k]);
-    b.knots.swap(gathered);
     res.volume_m3 += b.volume_m3;
     res.boards.push_back(std::move(b));
   }

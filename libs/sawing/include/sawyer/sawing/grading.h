@@ -97,11 +97,9 @@ struct BoardGrade {
 BoardGrade grade_board(const Board& board, const GradingRules& rules);
 // grade_board(cut_board(board, z0, z1), rules).grade without building the piece: the knots of
 // `board` crossing within [z0, z1] and the piece's wane per side (`wane`, as cut_board() sums it
-// from the slabs). For cross-cutting to value (trim_to_value), which tries many pieces.
-int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
-                const GradingRules& rules);
-// The same, looking only at the knots listed in `counted` (indices into board.knots, in order):
-// counted_knots(), the knots at least rules.min_knot_mm wide, the only ones the rules count.
+// from the slabs). For cross-cutting to value (trim_to_value), which tries many pieces: it looks
+// only at the knots listed in `counted` (indices into board.knots, in order), counted_knots():
+// those at least rules.min_knot_mm wide, the only ones the rules count.
 int piece_grade(const Board& board, double z0, double z1, const std::array<SideWane, 4>& wane,
                 const GradingRules& rules, const std::vector<int>& counted);
 std::vector<int> counted_knots(const Board& board, const GradingRules& rules);
