@@ -349,6 +349,14 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
   }
   scan_qa(sr.qa, f);
   const StemScan& s = sr.stem;
+  {
+    char b[200];
+    std::snprintf(b, sizeof b,
+                  "; ring drift %.3f mm/mm %s (measured %.3f, spread %.3f, gain %+.2f)",
+                  s.ring_drift.norm(), s.ring_drift.norm() > 0 ? "used" : "not used",
+                  s.ring_drift_measured.norm(), s.ring_drift_spread, s.ring_drift_gain);
+    f.knot_signal += b;
+  }
   f.slices = static_cast<int>(s.slices.size());
 
   // Stem, as bench/stem_bench: pith error per slice; radii re-expressed around the true pith so

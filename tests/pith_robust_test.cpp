@@ -258,62 +258,79 @@ TEST(PithRobust, EccentricPithFoundByItsRings) {
   expect_diagnostics(r.scan);
 }
 
+// Synthetic scans for the tests below: 30 slices 5 mm apart of one section (hu() at each
+// pixel's centre, in mm) plus Gaussian noise drawn per slice.
+class SectionSource : public SliceSource {
+ public:
+  SectionSource(int size, double pixel, unsigned seed, float noise_hu, std::string description)
+      : size_(size),
+        pixel_(pixel),
+        seed_(seed),
+        noise_hu_(noise_hu),
+        description_(std::move(description)) {
+    g_.width = g_.height = size;
+    g_.spacing_x = g_.spacing_y = pixel;
+    for (int i = 0; i < 30; ++i) g_.z.push_back(5.0 * i);
+  }
+  Format format() const override { return Format::kDicom; }
+  const VolumeGeometry& geometry() const override { return g_; }
+  std::string description() const override { return description_; }
+  const std::vector<std::string>& notes() const override { return notes_; }
+  Status read(int i, Slice& out) override {
+    std::mt19937 rng(seed_ + static_cast<unsigned>(i));
+    std::normal_distribution<float> noise(0.f, noise_hu_);
+    out.index = i;
+    out.z = g_.z[static_cast<size_t>(i)];
+    out.width = out.height = size_;
+    out.hu.resize(static_cast<size_t>(size_) * size_);
+    for (int y = 0; y < size_; ++y)
+      for (int x = 0; x < size_; ++x)
+        out.hu[static_cast<size_t>(y) * size_ + x] =
+            static_cast<float>(hu({x * pixel_, y * pixel_})) + noise(rng);
+    return Status::Ok();
+  }
+
+ protected:
+  virtual double hu(Vec2 q) const = 0;
+
+ private:
+  int size_;
+  double pixel_;
+  unsigned seed_;
+  float noise_hu_;
+  std::string description_;
+  VolumeGeometry g_;
+  std::vector<std::string> notes_;
+};
+
 // A knot cut across beside the pith shows rings of its own (PIN1B of the real slices has one 30
 // mm from the pith): crisper than the log's, but only out to the knot's radius. The pith stays
 // with the log's rings. Synthetic slices: a disc of wood, rings round a pith 16 mm off its
 // centre, a knot with its own fine, strong rings 26 mm from the pith, bark, air, noise.
-class KnotBesidePith final : public SliceSource {
+class KnotBesidePith final : public SectionSource {
  public:
-  static constexpr int kSize = 300;
-  static constexpr double kPixel = 0.7;
-  KnotBesidePith() {
-    g_.width = g_.height = kSize;
-    g_.spacing_x = g_.spacing_y = kPixel;
-    for (int i = 0; i < 30; ++i) g_.z.push_back(5.0 * i);
-  }
+  KnotBesidePith() : SectionSource(300, 0.7, 17, 20.f, "knot beside the pith") {}
   Vec2 pith() const { return centre_ + Vec2{16.0, 0.0}; }
   Vec2 knot() const { return pith() + Vec2{-18.0, 19.0}; }
-  Format format() const override { return Format::kDicom; }
-  const VolumeGeometry& geometry() const override { return g_; }
-  std::string description() const override { return "knot beside the pith"; }
-  const std::vector<std::string>& notes() const override { return notes_; }
-  Status read(int i, Slice& out) override {
-    std::mt19937 rng(static_cast<unsigned>(17 + i));
-    std::normal_distribution<float> noise(0.f, 20.f);
-    out.index = i;
-    out.z = g_.z[static_cast<size_t>(i)];
-    out.width = out.height = kSize;
-    out.hu.resize(static_cast<size_t>(kSize) * kSize);
-    const Vec2 p = pith(), k = knot();
-    for (int y = 0; y < kSize; ++y)
-      for (int x = 0; x < kSize; ++x) {
-        const Vec2 q{x * kPixel, y * kPixel};
-        const double r_log = (q - centre_).norm(), r_pith = (q - p).norm(), r_knot = (q - k).norm();
-        double v = -1000.0;
-        if (r_log < kRadius) {
-          // Rings homothetic to the outline about the pith (as real outer rings, and the log
-          // model's): ring radius r_pith * R_mean / R(u), R(u) the pith-to-outline distance
-          // along the direction u; heartwood (2.5 mm rings) inside, wet sapwood outside.
-          const Vec2 u = r_pith > 0 ? (1.0 / r_pith) * (q - p) : Vec2{1.0, 0.0};
-          const Vec2 pc = p - centre_;
-          const double b = u.x * pc.x + u.y * pc.y;
-          const double R = -b + std::sqrt(b * b - (pc.x * pc.x + pc.y * pc.y - kRadius * kRadius));
-          const double ring = r_pith * kRadius / R;
-          v = (ring < 55.0 ? -450.0 : -20.0) + 70.0 * std::cos(kTwoPi * ring / 2.5);
-          if (r_knot < 9.0) v = 60.0 + 150.0 * std::cos(kTwoPi * r_knot / 1.4);
-        } else if (r_log < kRadius + 4.0) {
-          v = -350.0;  // bark
-        }
-        out.hu[static_cast<size_t>(y) * kSize + x] = static_cast<float>(v) + noise(rng);
-      }
-    return Status::Ok();
-  }
 
  private:
+  double hu(Vec2 q) const override {
+    const Vec2 p = pith(), k = knot();
+    const double r_log = (q - centre_).norm(), r_pith = (q - p).norm(), r_knot = (q - k).norm();
+    if (r_log >= kRadius) return r_log < kRadius + 4.0 ? -350.0 : -1000.0;  // bark, air
+    // Rings homothetic to the outline about the pith (as real outer rings, and the log model's):
+    // ring radius r_pith * R_mean / R(u), R(u) the pith-to-outline distance along the direction
+    // u; heartwood (2.5 mm rings) inside, wet sapwood outside.
+    const Vec2 u = r_pith > 0 ? (1.0 / r_pith) * (q - p) : Vec2{1.0, 0.0};
+    const Vec2 pc = p - centre_;
+    const double b = u.x * pc.x + u.y * pc.y;
+    const double R = -b + std::sqrt(b * b - (pc.x * pc.x + pc.y * pc.y - kRadius * kRadius));
+    const double ring = r_pith * kRadius / R;
+    if (r_knot < 9.0) return 60.0 + 150.0 * std::cos(kTwoPi * r_knot / 1.4);
+    return (ring < 55.0 ? -450.0 : -20.0) + 70.0 * std::cos(kTwoPi * ring / 2.5);
+  }
   static constexpr double kRadius = 90.0;
   Vec2 centre_{105.0, 105.0};
-  VolumeGeometry g_;
-  std::vector<std::string> notes_;
 };
 
 TEST(PithRobust, AKnotsOwnRingsBesideThePithAreNotThePith) {
@@ -342,81 +359,70 @@ TEST(PithRobust, AKnotsOwnRingsBesideThePithAreNotThePith) {
 // and round): an elliptical log, 100 x 78 mm, its pith 18 mm off the centre, rings that follow
 // only `share` of the outline's departure from its mean radius. The stem pass measures the
 // share instead of assuming the rings follow the outline.
-class RoundRings final : public SliceSource {
+class RoundRings final : public SectionSource {
  public:
-  static constexpr int kSize = 320;
-  static constexpr double kPixel = 0.7;
-  explicit RoundRings(double share) : share_(share) {
-    g_.width = g_.height = kSize;
-    g_.spacing_x = g_.spacing_y = kPixel;
-    for (int i = 0; i < 30; ++i) g_.z.push_back(5.0 * i);
-  }
+  explicit RoundRings(double share)
+      : SectionSource(320, 0.7, 29, 25.f, "rings rounder than the log"), share_(share) {}
   Vec2 pith() const { return centre_ + Vec2{-12.0, 13.0}; }
-  Format format() const override { return Format::kDicom; }
-  const VolumeGeometry& geometry() const override { return g_; }
-  std::string description() const override { return "rings rounder than the log"; }
-  const std::vector<std::string>& notes() const override { return notes_; }
-  Status read(int i, Slice& out) override {
-    std::mt19937 rng(static_cast<unsigned>(29 + i));
-    std::normal_distribution<float> noise(0.f, 25.f);
-    out.index = i;
-    out.z = g_.z[static_cast<size_t>(i)];
-    out.width = out.height = kSize;
-    out.hu.resize(static_cast<size_t>(kSize) * kSize);
-    const Vec2 p = pith();
-    const double rm = 0.5 * (kA + kB);  // about the outline's mean radius from the pith
-    for (int y = 0; y < kSize; ++y)
-      for (int x = 0; x < kSize; ++x) {
-        const Vec2 q{x * kPixel, y * kPixel};
-        const Vec2 e = q - centre_;
-        const double ell = (e.x / kA) * (e.x / kA) + (e.y / kB) * (e.y / kB);
-        double v = -1000.0;
-        if (ell < 1.0) {
-          // R(u): pith to ellipse along u, the root t > 0 of |(p - c + t u) / (a, b)|^2 = 1.
-          const double r_pith = (q - p).norm();
-          const Vec2 u = r_pith > 0 ? (1.0 / r_pith) * (q - p) : Vec2{1.0, 0.0};
-          const Vec2 d = p - centre_;
-          const double qa = (u.x / kA) * (u.x / kA) + (u.y / kB) * (u.y / kB);
-          const double qb = 2 * (d.x * u.x / (kA * kA) + d.y * u.y / (kB * kB));
-          const double qc = (d.x / kA) * (d.x / kA) + (d.y / kB) * (d.y / kB) - 1.0;
-          const double R = (-qb + std::sqrt(qb * qb - 4 * qa * qc)) / (2 * qa);
-          const double ring = r_pith * rm / (rm + share_ * (R - rm));
-          v = (ring < 50.0 ? -480.0 : -30.0) + 60.0 * std::cos(kTwoPi * ring / 2.2);
-        } else if (ell < 1.1) {
-          v = -350.0;  // bark
-        }
-        out.hu[static_cast<size_t>(y) * kSize + x] = static_cast<float>(v) + noise(rng);
-      }
-    return Status::Ok();
-  }
 
  private:
+  double hu(Vec2 q) const override {
+    const Vec2 p = pith();
+    const double rm = 0.5 * (kA + kB);  // about the outline's mean radius from the pith
+    const Vec2 e = q - centre_;
+    const double ell = (e.x / kA) * (e.x / kA) + (e.y / kB) * (e.y / kB);
+    if (ell >= 1.0) return ell < 1.1 ? -350.0 : -1000.0;  // bark, air
+    // R(u): pith to ellipse along u, the root t > 0 of |(p - c + t u) / (a, b)|^2 = 1.
+    const double r_pith = (q - p).norm();
+    const Vec2 u = r_pith > 0 ? (1.0 / r_pith) * (q - p) : Vec2{1.0, 0.0};
+    const Vec2 d = p - centre_;
+    const double qa = (u.x / kA) * (u.x / kA) + (u.y / kB) * (u.y / kB);
+    const double qb = 2 * (d.x * u.x / (kA * kA) + d.y * u.y / (kB * kB));
+    const double qc = (d.x / kA) * (d.x / kA) + (d.y / kB) * (d.y / kB) - 1.0;
+    const double R = (-qb + std::sqrt(qb * qb - 4 * qa * qc)) / (2 * qa);
+    const double ring = r_pith * rm / (rm + share_ * (R - rm));
+    return (ring < 50.0 ? -480.0 : -30.0) + 60.0 * std::cos(kTwoPi * ring / 2.2);
+  }
   static constexpr double kA = 100.0, kB = 78.0;
   double share_;
   Vec2 centre_{112.0, 112.0};
-  VolumeGeometry g_;
-  std::vector<std::string> notes_;
 };
+
+// Scans `src` with `so`: the median distance of its piths from `pith` (1e9 when it fails).
+double median_pith_error(SliceSource& src, const StemScanOptions& so, Vec2 pith,
+                         StemScan* scan_out) {
+  auto scan = scan_stem(src, so);
+  EXPECT_TRUE(scan.ok()) << scan.error().message();
+  if (!scan.ok()) return 1e9;
+  std::vector<double> err;
+  for (const StemSliceRecord& rec : scan.value().slices) err.push_back((rec.pith - pith).norm());
+  *scan_out = std::move(scan.value());
+  return percentile(err, 0.5);
+}
 
 TEST(PithRobust, RingsRounderThanTheLogAreMeasuredNotAssumed) {
   RoundRings src(0.75);
   auto pith_error = [&](const StemScanOptions& so, double* share) {
-    auto scan = scan_stem(src, so);
-    EXPECT_TRUE(scan.ok()) << scan.error().message();
-    if (!scan.ok()) return 1e9;
-    std::vector<double> err;
-    for (const StemSliceRecord& rec : scan.value().slices)
-      err.push_back((rec.pith - src.pith()).norm());
-    *share = scan.value().ring_shape_share;
-    return percentile(err, 0.5);
+    StemScan scan;
+    const double e = median_pith_error(src, so, src.pith(), &scan);
+    *share = scan.ring_shape_share;
+    return e;
   };
-  StemScanOptions measured;
-  measured.threads = 1;
+  StemScanOptions defaults;
+  defaults.threads = 1;
+  // The share alone: a drift measured on top (RingsDriftingWithTheirRadius...) can take up
+  // part of a wrong shape's misfit, so it is left out of the comparison.
+  StemScanOptions measured = defaults;
+  measured.ring_drift_probes = 0;
   StemScanOptions assumed = measured;
   assumed.ring_shape_shares = {1.0};  // rings taken as following the outline, as before
-  double share_measured = 0, share_assumed = 0;
+  double share_measured = 0, share_assumed = 0, share_default = 0;
   const double e_measured = pith_error(measured, &share_measured);
   const double e_assumed = pith_error(assumed, &share_assumed);
+  const double e_default = pith_error(defaults, &share_default);
+  std::printf("[pith robust] rings rounder than the log, with the drift measured too: %.2f mm\n",
+              e_default);
+  EXPECT_LE(e_default, 0.5);
   std::printf(
       "[pith robust] rings rounder than the log: share %.2f, median %.2f mm (rings "
       "taken as the outline's shape: %.2f mm)\n",
@@ -425,6 +431,61 @@ TEST(PithRobust, RingsRounderThanTheLogAreMeasuredNotAssumed) {
   EXPECT_EQ(share_assumed, 1.0);
   EXPECT_LE(e_measured, 0.5);
   EXPECT_LT(e_measured, e_assumed);
+}
+
+// Eccentric growth: rings wider on one side year after year (compression wood, wind), so each
+// ring is centred farther from the pith the larger it is. A round log, its pith near the centre
+// (so that rings homothetic to the outline are circles: the drift is all the rings' own), rings
+// (1 + a cos(w - w0)) wider towards w0: the ring of radius r is centred a r from the pith. Lined up
+// as concentric, the rings out to 24 mm put the pith a millimetre or so towards w0; the stem pass
+// measures the drift on slices along the log and takes the pith where the rings close in.
+class DriftingRings final : public SectionSource {
+ public:
+  static constexpr double kA = 0.12;  // drift, mm per mm of ring radius
+  static constexpr double kW0 = 2.2;  // towards this azimuth (rad)
+  DriftingRings() : SectionSource(300, 0.7, 41, 25.f, "rings drifting with their radius") {}
+  Vec2 pith() const { return centre_ + Vec2{1.5, -1.0}; }
+
+ private:
+  double hu(Vec2 q) const override {
+    const Vec2 p = pith();
+    const double r_log = (q - centre_).norm(), r = (q - p).norm();
+    if (r_log >= kRadius) return r_log < kRadius + 4.0 ? -350.0 : -1000.0;  // bark, air
+    const double ring = r / (1 + kA * std::cos(std::atan2(q.y - p.y, q.x - p.x) - kW0));
+    return (ring < 45.0 ? -470.0 : -30.0) + 65.0 * std::cos(kTwoPi * ring / 2.0);
+  }
+  static constexpr double kRadius = 92.0;
+  Vec2 centre_{105.0, 105.0};
+};
+
+TEST(PithRobust, RingsDriftingWithTheirRadiusCloseInOnThePith) {
+  DriftingRings src;
+  auto run = [&](const StemScanOptions& so, Vec2* drift) {
+    StemScan scan;
+    const double e = median_pith_error(src, so, src.pith(), &scan);
+    *drift = scan.ring_drift;
+    std::printf("[pith robust] measured drift (%.3f, %.3f), spread %.3f, gain %+.2f\n",
+                scan.ring_drift_measured.x, scan.ring_drift_measured.y, scan.ring_drift_spread,
+                scan.ring_drift_gain);
+    return e;
+  };
+  StemScanOptions measured;
+  measured.threads = 1;
+  StemScanOptions concentric = measured;
+  concentric.ring_drift_probes = 0;  // rings taken as concentric, as before
+  Vec2 d_measured, d_concentric;
+  const double e_measured = run(measured, &d_measured);
+  const double e_concentric = run(concentric, &d_concentric);
+  const Vec2 want{DriftingRings::kA * std::cos(DriftingRings::kW0),
+                  DriftingRings::kA * std::sin(DriftingRings::kW0)};
+  std::printf(
+      "[pith robust] drifting rings: drift (%.3f, %.3f) mm/mm (true %.3f, %.3f), median %.2f "
+      "mm (concentric: %.2f mm)\n",
+      d_measured.x, d_measured.y, want.x, want.y, e_measured, e_concentric);
+  EXPECT_LE((d_measured - want).norm(), 0.04);
+  EXPECT_EQ(d_concentric.norm(), 0.0);
+  EXPECT_LE(e_measured, 0.4);
+  EXPECT_LT(e_measured, 0.6 * e_concentric);
 }
 
 }  // namespace

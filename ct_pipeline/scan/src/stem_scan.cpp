@@ -206,7 +206,8 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
       ok = contour_centre(rec.centre, rec.heartwood.radius, rec.heartwood.valid, &c);
     if (!ok) ok = contour_centre(rec.centre, rec.contour.radius, rec.contour.valid, &c);
     if (!ok) continue;
-    shape_raw[static_cast<size_t>(i)] = {c, 1.0, true};
+    PithResult& q = shape_raw[static_cast<size_t>(i)];
+    q.pith_mm = c, q.confidence = 1.0, q.found = true;
     radius[static_cast<size_t>(i)] = median_radius(rec.contour.radius, rec.contour.valid);
   }
   const std::vector<Vec2> shape = smooth_pith_track(z, shape_raw, options.track);
@@ -759,34 +760,69 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
       slices_within(g, options.refine.average_half_window_mm, options.refine.max_half_slices);
   const std::vector<Vec2> first = track;
   // The rings' share of the outline's shape, measured on a few slices along the log with the
-  // first pass's wide search: the share whose rings line up best.
-  if (options.ring_shape_shares.size() > 1 && options.ring_shape_probes > 0) {
+  // first pass's wide search: the share whose rings line up best. Then, on the same slices, how
+  // far the rings' centre drifts with their radius (eccentric growth).
+  const int np_wanted =
+      std::max(options.ring_shape_shares.size() > 1 ? options.ring_shape_probes : 0,
+               options.ring_drift_probes);
+  if (np_wanted > 0) {
     const int every = slice_step(g, ro.refine_spacing_mm);
     std::vector<int> candidates;
     for (int i = 0; i < n; ++i)
       if (refined_slice(i, n, every) && scan.slices[static_cast<size_t>(i)].measured)
         candidates.push_back(i);
-    std::vector<bool> probe(static_cast<size_t>(n), false);
-    const int np = std::min<int>(options.ring_shape_probes, static_cast<int>(candidates.size()));
-    for (int k = 0; k < np; ++k)
-      probe[static_cast<size_t>(
-          candidates[static_cast<size_t>((2 * k + 1) * candidates.size() / (2 * np))])] = true;
-    if (np > 0) {
-      const std::vector<std::vector<double>> outlines = outlines_around(track);
-      PithRefineOptions po = ro;
-      po.search_radius_mm = options.first_search_mm;
+    auto probes = [&](int want) {
+      std::vector<bool> probe(static_cast<size_t>(n), false);
+      const int np = std::min<int>(want, static_cast<int>(candidates.size()));
+      for (int k = 0; k < np; ++k)
+        probe[static_cast<size_t>(
+            candidates[static_cast<size_t>((2 * k + 1) * candidates.size() / (2 * np))])] = true;
+      return np > 0 ? probe : std::vector<bool>{};
+    };
+    const std::vector<std::vector<double>> outlines = outlines_around(track);
+    PithRefineOptions po = ro;
+    po.search_radius_mm = options.first_search_mm;
+    const std::vector<bool> share_probe = probes(options.ring_shape_probes);
+    if (options.ring_shape_shares.size() > 1 && !share_probe.empty()) {
       double best = -1;
       for (double share : options.ring_shape_shares) {
         po.ring_shape_share = share;
         std::vector<double> conf;
         for (const PithResult& q :
-             refine_pith_track(crops, z, track, g, options.pith, po, &outlines, &probe))
+             refine_pith_track(crops, z, track, g, options.pith, po, &outlines, &share_probe))
           if (q.found) conf.push_back(q.confidence);
         const double m = conf.empty() ? 0.0 : median(conf);
         if (m > best) best = m, ro.ring_shape_share = share;
       }
     }
+    const std::vector<bool> drift_probe = probes(options.ring_drift_probes);
+    if (!drift_probe.empty() && options.ring_drift_max > 0) {
+      po.ring_shape_share = ro.ring_shape_share;
+      po.search_drift = true;
+      po.drift_search.max_mm_per_mm = options.ring_drift_max;
+      // The drift each probe's sectors show; the log's is their median, used where the probes
+      // agree on it and the rings, taken as drifting so, line up nearly as well as concentric
+      // ones or better (a drift that loses much of the ring signal does not describe them).
+      std::vector<double> dx, dy, gain;
+      for (const PithResult& q :
+           refine_pith_track(crops, z, track, g, options.pith, po, &outlines, &drift_probe))
+        if (q.found)
+          dx.push_back(q.ring_drift.x), dy.push_back(q.ring_drift.y), gain.push_back(q.drift_gain);
+      if (!gain.empty()) {
+        const Vec2 d{median(dx), median(dy)};
+        std::vector<double> dev;
+        for (size_t k = 0; k < dx.size(); ++k) dev.push_back((Vec2{dx[k], dy[k]} - d).norm());
+        scan.ring_drift_measured = d;
+        scan.ring_drift_spread = median(dev);
+        scan.ring_drift_gain = median(gain);
+        if (dx.size() >= 3 && d.norm() >= options.ring_drift_min &&
+            d.norm() >= options.ring_drift_consistency * scan.ring_drift_spread &&
+            scan.ring_drift_gain >= options.ring_drift_min_gain)
+          ro.ring_drift = d;
+      }
+    }
   }
+  scan.ring_drift = ro.ring_drift;
   scan.ring_shape_share = ro.ring_shape_share;
   for (int pass = 0; pass <= options.refine_iterations; ++pass) {
     // The first pass searches wide (the first track lags where the pith turns), the others

@@ -775,7 +775,8 @@ WoodLevels wood_levels(const Slice& s, const PithOptions& options) {
 
 PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 start,
                                   double search_mm, const std::vector<double>* outline,
-                                  double ring_max_mm, double ring_min_mm, double shape_share) {
+                                  double ring_max_mm, double ring_min_mm, double shape_share,
+                                  Vec2 ring_drift, const RingDriftSearch* drift) {
   PithResult res;
   const double sx = g.spacing_x, sy = g.spacing_y;
   const double ring_min = std::max(ring_min_mm, kRingMinMm);
@@ -850,6 +851,15 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     fx[i] = px[i].x, fy[i] = px[i].y, fv[i] = px[i].v - level;
     fux[i] = px[i].ux, fuy[i] = px[i].uy, fk[i] = px[i].k, fir[i] = px[i].inv_r;
   }
+  // Drifting rings: the ring of model radius rho is centred rho * d from the pith, so a pixel
+  // at distance q in direction u lies on rho = q k / (1 + k d . u) (first order in d).
+  std::vector<float> fk0;  // the scales without a drift (kept where a drift is taken or sought)
+  if (drift || ring_drift.x != 0 || ring_drift.y != 0) fk0 = fk;
+  auto set_drift = [&](Vec2 d) {
+    const float dx = static_cast<float>(d.x), dy = static_cast<float>(d.y);
+    for (size_t i = 0; i < npx; ++i) fk[i] = fk0[i] / (1.f + fk0[i] * (dx * fux[i] + dy * fuy[i]));
+  };
+  if (ring_drift.x != 0 || ring_drift.y != 0) set_drift(ring_drift);
   const int nb_all = static_cast<int>((ring_max - ring_min) / kRingBinMm) + 1;
   constexpr int lh = static_cast<int>(kRingSmoothMm / kRingBinMm);
   // Four interleaved histograms: consecutive pixels fall in the same bin, and one histogram
@@ -968,28 +978,160 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     seen.push_back({li, lj, v});
     return v;
   };
-  for (int it = 0; it < 40; ++it) {
-    int arg = 4;
-    nbh[4] = bs;
-    for (int j = -1; j <= 1; ++j)
-      for (int i = -1; i <= 1; ++i) {
-        if (!i && !j) continue;
-        const int q = (j + 1) * 3 + (i + 1);
-        nbh[q] = lattice_score({best.x + i * h, best.y + j * h});
-        if (nbh[q] > nbh[arg]) arg = q;
-      }
-    if (arg == 4) break;
-    const Vec2 next{best.x + (arg % 3 - 1) * h, best.y + (arg / 3 - 1) * h};
-    // Stay in the searched disc: a climb along a noisy ridge would reach the alignment one ring
-    // off, outside the area the grid vouched for.
-    if (next.norm() > search_mm + grid_mm) break;
-    best = next;
-    bs = nbh[arg];
-  }
+  // From `at` (score `v`) to the best point of its 3 x 3 neighbourhood, within `limit` of the
+  // start; `at` and `v` are updated, nbh holds the last neighbourhood.
+  auto climb = [&](Vec2& at, double& v, double limit) {
+    seen.clear();
+    for (int it = 0; it < 40; ++it) {
+      int arg = 4;
+      nbh[4] = v;
+      for (int j = -1; j <= 1; ++j)
+        for (int i = -1; i <= 1; ++i) {
+          if (!i && !j) continue;
+          const int q = (j + 1) * 3 + (i + 1);
+          nbh[q] = lattice_score({at.x + i * h, at.y + j * h});
+          if (nbh[q] > nbh[arg]) arg = q;
+        }
+      if (arg == 4) break;
+      const Vec2 next{at.x + (arg % 3 - 1) * h, at.y + (arg / 3 - 1) * h};
+      // Stay in the searched disc: a climb along a noisy ridge would reach the alignment one
+      // ring off, outside the area the grid vouched for.
+      if (next.norm() > limit) break;
+      at = next;
+      v = nbh[arg];
+    }
+  };
+  climb(best, bs, search_mm + grid_mm);
   auto vertex = [](double l, double c, double r) {
     const double den = l - 2 * c + r;
     return den < 0 ? std::clamp(0.5 * (l - r) / den, -0.5, 0.5) : 0.0;
   };
+  auto net_signal = [&](Vec2 at) {
+    double nz = 0;
+    const double v = score(at, &nz);
+    return v - nz;
+  };
+  // The drift from the rings themselves, sector by sector: around the concentric answer each
+  // sector's ring profile is the whole profile moved out by a + b r (a ring of radius r centred
+  // at pith + drift r lies a + b r farther out in direction u: a = (pith - centre) . u, b =
+  // drift . u). Each sector's a and b are where its profile matches the whole one best; their
+  // first harmonics around the circle are the pith's offset and the drift (the rest is the
+  // rings' shape, which a sector takes up on its own instead of biasing the two).
+  if (drift) {
+    const Vec2 c = best;
+    const double base_signal = net_signal(best);
+    constexpr double kBin = 0.2;
+    const int nsec = drift->sectors;
+    const int nb = static_cast<int>((ring_max - ring_min) / kBin) + 1;
+    std::vector<double> sum(static_cast<size_t>(nsec) * nb, 0.0), cnt(sum.size(), 0.0);
+    std::vector<double> gsum(static_cast<size_t>(nb), 0.0), gcnt(gsum.size(), 0.0);
+    for (size_t i = 0; i < npx; ++i) {
+      const double ex = fx[i] - c.x, ey = fy[i] - c.y;
+      const double r =
+          std::sqrt(ex * ex + ey * ey) * fk0[i] * (1.0 + (c.x * fux[i] + c.y * fuy[i]) * fir[i]);
+      const int b = static_cast<int>((r - ring_min) / kBin);
+      if (b < 0 || b >= nb) continue;
+      const int j = std::min(nsec - 1, static_cast<int>(azimuth_fast(ex, ey) / kTwoPi * nsec));
+      sum[static_cast<size_t>(j) * nb + b] += fv[i], cnt[static_cast<size_t>(j) * nb + b] += 1;
+      gsum[static_cast<size_t>(b)] += fv[i], gcnt[static_cast<size_t>(b)] += 1;
+    }
+    // Profiles less their running mean over +-kRingSmoothMm (the rings alone).
+    const int sm = static_cast<int>(kRingSmoothMm / kBin);
+    auto detrend = [&](const double* s0, const double* c0, std::vector<double>& out,
+                       std::vector<double>& w) {
+      std::vector<double> mean(static_cast<size_t>(nb), 0.0);
+      for (int b = 0; b < nb; ++b) mean[b] = c0[b] > 0 ? s0[b] / c0[b] : NAN;
+      out.assign(static_cast<size_t>(nb), 0.0);
+      w.assign(static_cast<size_t>(nb), 0.0);
+      for (int b = 0; b < nb; ++b) {
+        if (!std::isfinite(mean[b])) continue;
+        double a = 0;
+        int n = 0;
+        for (int q = std::max(0, b - sm); q <= std::min(nb - 1, b + sm); ++q)
+          if (std::isfinite(mean[q])) a += mean[q], ++n;
+        out[b] = mean[b] - a / n;
+        w[b] = c0[b];
+      }
+    };
+    std::vector<double> whole, gw;
+    detrend(gsum.data(), gcnt.data(), whole, gw);
+    auto g_at = [&](double r) {
+      const double t = (r - ring_min) / kBin - 0.5;
+      const int b = static_cast<int>(std::floor(t));
+      if (b < 0 || b + 1 >= nb) return 0.0;
+      const double f = t - b;
+      return (1 - f) * whole[b] + f * whole[b + 1];
+    };
+    // Least squares of a_j = e . u_j and b_j = d . u_j over the sectors with rings in them.
+    double uxx = 0, uxy = 0, uyy = 0, sa_x = 0, sa_y = 0, sb_x = 0, sb_y = 0;
+    std::vector<double> p, pw;
+    std::vector<std::pair<double, double>> used;  // (radius, weight * value) of the filled bins
+    const double amax = drift->offset_search_mm, bmax = drift->max_mm_per_mm;
+    auto match = [&](double aq, double bq) {
+      double v = 0;
+      const double inv = 1.0 / (1 + bq);
+      // The sector's ring at r is the whole profile's ring at (r - a) / (1 + b).
+      for (const auto& [r, wv] : used) v += wv * g_at((r - aq) * inv);
+      return v;
+    };
+    for (int j = 0; j < nsec; ++j) {
+      detrend(&sum[static_cast<size_t>(j) * nb], &cnt[static_cast<size_t>(j) * nb], p, pw);
+      used.clear();
+      for (int b = 0; b < nb; ++b)
+        if (pw[b] > 0) used.push_back({ring_min + (b + 0.5) * kBin, pw[b] * p[b]});
+      if (static_cast<int>(used.size()) < nb / 2) continue;  // mostly outside the image or cut
+      // A coarse grid (four times the steps), then twice a grid of half the last steps
+      // around the best so far.
+      double bestv = -1e300, ba = 0, bb = 0;
+      double sa = 4 * drift->offset_step, sb = 4 * drift->drift_step;
+      for (double bq = -bmax; bq <= bmax + 1e-9; bq += sb)
+        for (double aq = -amax; aq <= amax + 1e-9; aq += sa) {
+          const double v = match(aq, bq);
+          if (v > bestv) bestv = v, ba = aq, bb = bq;
+        }
+      for (int finer = 0; finer < 2; ++finer) {
+        sa *= 0.5, sb *= 0.5;
+        const double ca = ba, cb = bb;
+        for (int jb = -2; jb <= 2; ++jb)
+          for (int ja = -2; ja <= 2; ++ja) {
+            if (!ja && !jb) continue;
+            const double aq = ca + ja * sa, bq = cb + jb * sb;
+            if (std::abs(bq) > bmax + 1e-9 || std::abs(aq) > amax + 1e-9) continue;
+            const double v = match(aq, bq);
+            if (v > bestv) bestv = v, ba = aq, bb = bq;
+          }
+      }
+      const double ux = std::cos((j + 0.5) * kTwoPi / nsec),
+                   uy = std::sin((j + 0.5) * kTwoPi / nsec);
+      uxx += ux * ux, uxy += ux * uy, uyy += uy * uy;
+      sa_x += ba * ux, sa_y += ba * uy;
+      sb_x += bb * ux, sb_y += bb * uy;
+    }
+    const double det = uxx * uyy - uxy * uxy;
+    if (!(det > 0.1 * nsec * nsec / 4.0)) return res;  // too few sectors round the circle
+    auto solve = [&](double bx, double by) {
+      return Vec2{(uyy * bx - uxy * by) / det, (uxx * by - uxy * bx) / det};
+    };
+    const Vec2 e = solve(sa_x, sa_y);
+    const Vec2 d = solve(sb_x, sb_y);
+    res.drift_offset_mm = e.norm();
+    res.ring_drift = d;
+    // The pith: the concentric answer moved by the sectors' offset, then lined up again with
+    // the drift.
+    set_drift(d);
+    const Vec2 guess{h * std::round((c.x + e.x) / h), h * std::round((c.y + e.y) / h)};
+    const int ng = static_cast<int>(drift->offset_search_mm / grid_mm);
+    bs = -1;
+    for (int j = -ng; j <= ng; ++j)
+      for (int i = -ng; i <= ng; ++i) {
+        if (i * i + j * j > ng * ng) continue;
+        const Vec2 q{guess.x + i * grid_mm, guess.y + j * grid_mm};
+        const double v = score(q, nullptr);
+        if (v > bs) bs = v, best = q;
+      }
+    climb(best, bs, 1e9);
+    res.drift_gain = base_signal > 0 ? net_signal(best) / base_signal - 1.0 : 0.0;
+  }
   best = {best.x + h * vertex(nbh[3], nbh[4], nbh[5]), best.y + h * vertex(nbh[1], nbh[4], nbh[7])};
   double noise = 0;
   bs = score(best, &noise);

@@ -421,8 +421,10 @@ PithResult refine_one(const CropStore& crops, const std::vector<double>& z,
   const std::vector<double>* outline = outlines && !(*outlines)[static_cast<size_t>(i)].empty()
                                            ? &(*outlines)[static_cast<size_t>(i)]
                                            : nullptr;
-  PithResult r = refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline,
-                                        kRingProfileMaxMm, 0.0, refine.ring_shape_share);
+  PithResult r =
+      refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline, kRingProfileMaxMm,
+                             0.0, refine.ring_shape_share, refine.ring_drift,
+                             refine.search_drift ? &refine.drift_search : nullptr);
   if (r.found) r.pith_mm = r.pith_mm + origin;
   return r;
 }

@@ -90,6 +90,22 @@ struct StemScanOptions {
   // bench/real_slices three quarters of the outline's departure fits four of the five logs.
   std::vector<double> ring_shape_shares = {1.0, 0.75};
   int ring_shape_probes = 8;
+  // How far the rings' centre drifts with their radius (PithRefineOptions::ring_drift): rings
+  // grown wider on one side year after year (compression wood, wind) are centred the farther
+  // from the pith the larger they are, and rings lined up as concentric put the pith between
+  // the two. Measured per log on ring_drift_probes slices (refine_pith_concentric's sector
+  // search, within ring_drift_max mm per mm) and used when it is at least ring_drift_min and
+  // ring_drift_consistency times the probes' median deviation from it (a drift the rings show
+  // all along the log, not one noise or a knot makes on a few slices), and the rings taken as
+  // drifting so keep at least 1 + ring_drift_min_gain of the concentric rings' signal (median
+  // over the probes; on two of the sweep's conditions with strong compression wood the sectors
+  // agree on a drift that the rings' centres do not have, and the signal falls by more than
+  // half; where the drift is right it changes by -0.23 to +0.21). 0 probes: not measured.
+  int ring_drift_probes = 8;
+  double ring_drift_max = 0.3;
+  double ring_drift_min = 0.01;
+  double ring_drift_consistency = 2.5;
+  double ring_drift_min_gain = -0.35;
   // The whorl cue (pith_whorl.h) where the rings are not resolved.
   WhorlPithOptions whorl;
   // When set (an empty_like volume of the source's geometry), every slice with a contour is
@@ -176,6 +192,10 @@ struct StemScan {
   int pith_refinements = 0;    // ring-profile refinements, all passes
   int pith_refine_passes = 0;
   double ring_shape_share = 1.0;  // the share the refinement used (StemScanOptions)
+  Vec2 ring_drift;                // the rings' drift the refinement used (mm per mm; 0: none)
+  Vec2 ring_drift_measured;       // the probes' median drift, used or not
+  double ring_drift_spread = 0;   // the probes' median deviation from it (mm per mm)
+  double ring_drift_gain = 0;     // median ring signal with it over concentric rings, less 1
   std::size_t crop_bytes_in_memory = 0, crop_bytes_spilled = 0;  // the pith crops (CropStore)
   // Stem values replaced because they left their neighbours along z (a chain on the log, a bad
   // slice): outer radius and heartwood, in azimuth samples.

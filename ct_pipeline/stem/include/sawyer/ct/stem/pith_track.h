@@ -210,6 +210,12 @@ struct PithRefineOptions {
   // rings homothetic to the outline about the pith; 0, circles. The stem pass measures it per
   // log (StemScanOptions::ring_shape_shares).
   double ring_shape_share = 1.0;
+  // The drift of the rings' centre with their radius (refine_pith_concentric's ring_drift),
+  // and whether to search it per slice (PithResult::ring_drift; the stem pass measures it per
+  // log, StemScanOptions::ring_drift_probes).
+  Vec2 ring_drift;
+  bool search_drift = false;
+  RingDriftSearch drift_search;
 };
 
 // Second pass over the crops of a first, smoothed track: each slice's pith is detected again on

@@ -68,6 +68,14 @@ struct PithResult {
   // refine_pith_concentric only: the ring period (mm) its profile shows around the answer,
   // from the profile's zero crossings (noise adds crossings, so never overstated); 0 elsewhere.
   double ring_period_mm = 0;
+  // refine_pith_concentric with a RingDriftSearch only: the drift of the rings' centre (mm per
+  // mm of ring radius) the slice's ring sectors show; how far they put the pith from the
+  // concentric answer (mm); and the ring signal (energy less its expected noise) of the rings
+  // taken as drifting so, around their own best centre, over that of concentric rings, less 1
+  // (0.1: a tenth more; -0.5: half as much, the drift does not describe these rings).
+  Vec2 ring_drift;
+  double drift_offset_mm = 0;
+  double drift_gain = 0;
 };
 
 // The log's section in a slice: centroid and equivalent radius (mm) of the largest connected
@@ -116,10 +124,32 @@ double wide_ring_score(const Slice& slice, const VolumeGeometry& geometry, Vec2 
 // along z (pith_track.h). confidence: signal share of the profile energy (0..1).
 inline constexpr double kRingProfileMaxMm = 24.0;
 // `ring_min_mm` (at least 1.5 mm) leaves the innermost rings out: a band of the profile alone.
+//
+// Rings grown eccentrically (compression wood, wind: wider on one side year after year) are not
+// centred on the pith: the ring of radius r is centred at pith + ring_drift * r, so the rings
+// out to 24 mm line up best around a point between the pith and the larger rings' centre.
+// `ring_drift` takes the rings so (a pixel at distance q in direction u from the pith lies on
+// the ring of radius q / (1 + ring_drift . u), on top of the outline's shape). With `drift` the
+// drift is measured as well, sector by sector around the concentric answer: in `sectors`
+// sectors, each sector's ring profile is the whole profile moved out by a + b r (a ring of
+// radius r centred at pith + drift r lies (pith - centre) . u + (drift . u) r farther out in
+// direction u); each sector's (a, b) is where its profile matches the whole one best (a grid
+// within offset_search_mm and max_mm_per_mm, then a finer one around its best), and the first
+// harmonics of a and b round the circle are the pith's offset and the drift (the rest is the
+// rings' own shape, which each sector takes up instead of biasing the two). The answer is then
+// the drifted rings' best centre (PithResult::ring_drift, drift_offset_mm, drift_gain).
+struct RingDriftSearch {
+  double max_mm_per_mm = 0.3;
+  double drift_step = 0.01;  // the finest grid's steps; the first grid's are four times these
+  double offset_search_mm = 2.0;
+  double offset_step = 0.05;
+  int sectors = 16;
+};
 PithResult refine_pith_concentric(const Slice& slice, const VolumeGeometry& geometry, Vec2 start,
                                   double search_mm, const std::vector<double>* outline,
                                   double ring_max_mm = kRingProfileMaxMm, double ring_min_mm = 0.0,
-                                  double shape_share = 1.0);
+                                  double shape_share = 1.0, Vec2 ring_drift = {},
+                                  const RingDriftSearch* drift = nullptr);
 // The pixels refine_pith_concentric reads lie within this distance (mm) of `start`.
 inline double ring_profile_reach_mm(double search_mm, double ring_max_mm = kRingProfileMaxMm) {
   return ring_max_mm + search_mm + 1.0;
