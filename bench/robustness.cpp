@@ -206,6 +206,7 @@ struct Figures {
          qa_weak_bark = NAN, qa_bark_step = NAN, qa_bark_share = NAN;
   double seconds_render = 0, seconds_scan = 0;
   std::string knot_signal;  // the knot pass's noise, thresholds and ring rejections (stderr)
+  std::string ring_drift;   // the stem pass's ring drift, used or not (stderr)
 };
 
 // The scan's own QA verdict (what `sawyer scan` and `sawyer run` report): flagged when it
@@ -351,11 +352,10 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
   const StemScan& s = sr.stem;
   {
     char b[200];
-    std::snprintf(b, sizeof b,
-                  "; ring drift %.3f mm/mm %s (measured %.3f, spread %.3f, gain %+.2f)",
+    std::snprintf(b, sizeof b, "ring drift %.3f mm/mm %s (measured %.3f, spread %.3f, gain %+.2f)",
                   s.ring_drift.norm(), s.ring_drift.norm() > 0 ? "used" : "not used",
                   s.ring_drift_measured.norm(), s.ring_drift_spread, s.ring_drift_gain);
-    f.knot_signal += b;
+    f.ring_drift = b;
   }
   f.slices = static_cast<int>(s.slices.size());
 
@@ -1047,7 +1047,8 @@ int main(int argc, char** argv) {
     Figures f = measure(c, log, slices, threads, true_stem);
     std::fprintf(stderr, "robustness: %d/%d %s %s: %s\n", i + 1, n_conditions,
                  preset_name(c.preset), log.id.c_str(),
-                 f.error.empty() ? (figures(f) + "; " + f.knot_signal).c_str() : f.error.c_str());
+                 f.error.empty() ? (figures(f) + "; " + f.knot_signal + "; " + f.ring_drift).c_str()
+                                 : f.error.c_str());
     done.push_back({c, log.id, std::move(f)});
     logs_of.push_back(std::move(log));
   }

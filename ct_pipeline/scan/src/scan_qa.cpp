@@ -354,13 +354,12 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
       st.notes.push_back(line);
     }
     if (scan.ring_drift.norm() > 0) {
-      std::snprintf(
-          line, sizeof line,
-          "eccentric growth: the rings' centre moves %.2f mm per mm of radius towards "
-          "%.0f deg (probes agree within %.2f); the pith is where they close in",
-          scan.ring_drift.norm(),
-          std::fmod(std::atan2(scan.ring_drift.y, scan.ring_drift.x) * 180 / kPi + 360, 360.0),
-          scan.ring_drift_spread);
+      std::snprintf(line, sizeof line,
+                    "eccentric growth: the rings' centre moves %.2f mm per mm of radius towards "
+                    "%.0f deg (probes agree within %.2f); the pith is where they close in",
+                    scan.ring_drift.norm(),
+                    wrap_angle(std::atan2(scan.ring_drift.y, scan.ring_drift.x)) * 180 / kPi,
+                    scan.ring_drift_spread);
       st.notes.push_back(line);
     }
     // Where, and why (the most common reason in each run); the three longest runs.

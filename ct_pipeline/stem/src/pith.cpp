@@ -1114,7 +1114,6 @@ PithResult refine_pith_concentric(const Slice& s, const VolumeGeometry& g, Vec2 
     };
     const Vec2 e = solve(sa_x, sa_y);
     const Vec2 d = solve(sb_x, sb_y);
-    res.drift_offset_mm = e.norm();
     res.ring_drift = d;
     // The pith: the concentric answer moved by the sectors' offset, then lined up again with
     // the drift.

@@ -100,7 +100,9 @@ struct StemScanOptions {
   // drifting so keep at least 1 + ring_drift_min_gain of the concentric rings' signal (median
   // over the probes; on two of the sweep's conditions with strong compression wood the sectors
   // agree on a drift that the rings' centres do not have, and the signal falls by more than
-  // half; where the drift is right it changes by -0.23 to +0.21). 0 probes: not measured.
+  // half; where the drift is right it changes by -0.22 to +0.15: a limit set from the phantom
+  // sweep, not from real logs, on none of which the probes agree on a drift). 0 probes: not
+  // measured.
   int ring_drift_probes = 8;
   double ring_drift_max = 0.3;
   double ring_drift_min = 0.01;

@@ -69,12 +69,10 @@ struct PithResult {
   // from the profile's zero crossings (noise adds crossings, so never overstated); 0 elsewhere.
   double ring_period_mm = 0;
   // refine_pith_concentric with a RingDriftSearch only: the drift of the rings' centre (mm per
-  // mm of ring radius) the slice's ring sectors show; how far they put the pith from the
-  // concentric answer (mm); and the ring signal (energy less its expected noise) of the rings
-  // taken as drifting so, around their own best centre, over that of concentric rings, less 1
-  // (0.1: a tenth more; -0.5: half as much, the drift does not describe these rings).
+  // mm of ring radius) the slice's ring sectors show, and the ring signal (energy less its expected
+  // noise) of the rings taken as drifting so, around their own best centre, over that of concentric
+  // rings, less 1 (0.1: a tenth more; -0.5: half as much, the drift does not describe these rings).
   Vec2 ring_drift;
-  double drift_offset_mm = 0;
   double drift_gain = 0;
 };
 
@@ -137,7 +135,7 @@ inline constexpr double kRingProfileMaxMm = 24.0;
 // within offset_search_mm and max_mm_per_mm, then a finer one around its best), and the first
 // harmonics of a and b round the circle are the pith's offset and the drift (the rest is the
 // rings' own shape, which each sector takes up instead of biasing the two). The answer is then
-// the drifted rings' best centre (PithResult::ring_drift, drift_offset_mm, drift_gain).
+// the drifted rings' best centre (PithResult::ring_drift, drift_gain).
 struct RingDriftSearch {
   double max_mm_per_mm = 0.3;
   double drift_step = 0.01;  // the finest grid's steps; the first grid's are four times these
