@@ -206,7 +206,7 @@ struct Figures {
          qa_weak_bark = NAN, qa_bark_step = NAN, qa_bark_share = NAN;
   double seconds_render = 0, seconds_scan = 0;
   std::string knot_signal;  // the knot pass's noise, thresholds and ring rejections (stderr)
-  std::string ring_drift;   // the stem pass's ring drift, used or not (stderr)
+  std::string ring_drift;   // the stem pass's ring drift and inner rings, used or not (stderr)
 };
 
 // The scan's own QA verdict (what `sawyer scan` and `sawyer run` report): flagged when it
@@ -356,6 +356,14 @@ Figures measure(const Condition& c, const LogModel& log, int n, int threads, boo
                   s.ring_drift.norm(), s.ring_drift.norm() > 0 ? "used" : "not used",
                   s.ring_drift_measured.norm(), s.ring_drift_spread, s.ring_drift_gain);
     f.ring_drift = b;
+    if (s.inner_ring_mm > 0) {
+      std::snprintf(
+          b, sizeof b,
+          "; inner rings %.1f mm %s (moved %.2f mm, scatter %.2f against %.2f, gain %+.2f)",
+          s.inner_ring_mm, s.inner_used ? "used" : "not used", s.inner_shift_mm, s.inner_scatter_mm,
+          s.outer_scatter_mm, s.inner_gain);
+      f.ring_drift += b;
+    }
   }
   f.slices = static_cast<int>(s.slices.size());
 

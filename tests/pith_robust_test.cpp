@@ -488,5 +488,54 @@ TEST(PithRobust, RingsDriftingWithTheirRadiusCloseInOnThePith) {
   EXPECT_LT(e_measured, 0.6 * e_concentric);
 }
 
+// Growth that changed with age: the first rings round the pith, then (a lean, a neighbour
+// felled) each ring centred farther to one side up to kShift mm by kEndMm of radius, and
+// concentric again beyond. No single drift describes that; the rings out to 24 mm line up around
+// a point well off the pith, the innermost ones around the pith itself.
+class RingsMovingWithAge final : public SectionSource {
+ public:
+  static constexpr double kShift = 3.0, kStartMm = 8.0, kEndMm = 16.0, kW0 = -0.7;
+  RingsMovingWithAge() : SectionSource(300, 0.7, 43, 25.f, "rings moving off with age") {}
+  Vec2 pith() const { return centre_ + Vec2{-1.0, 2.0}; }
+
+ private:
+  // The centre of the ring of radius rho, relative to the pith.
+  static Vec2 offset(double rho) {
+    const double t = std::clamp((rho - kStartMm) / (kEndMm - kStartMm), 0.0, 1.0);
+    return Vec2{kShift * t * std::cos(kW0), kShift * t * std::sin(kW0)};
+  }
+  double hu(Vec2 q) const override {
+    const double r_log = (q - centre_).norm();
+    if (r_log >= kRadius) return r_log < kRadius + 4.0 ? -350.0 : -1000.0;  // bark, air
+    // The ring through q: rho = |q - pith - offset(rho)| (a contraction: the offset changes by
+    // under half a millimetre per millimetre of radius).
+    double rho = (q - pith()).norm();
+    for (int k = 0; k < 30; ++k) rho = (q - pith() - offset(rho)).norm();
+    return (rho < 45.0 ? -470.0 : -30.0) + 65.0 * std::cos(kTwoPi * rho / 2.0);
+  }
+  static constexpr double kRadius = 92.0;
+  Vec2 centre_{105.0, 105.0};
+};
+
+TEST(PithRobust, TheInnermostRingsSetThePithWhereGrowthMovedOffWithAge) {
+  RingsMovingWithAge src;
+  StemScanOptions with_inner;
+  with_inner.threads = 1;
+  StemScanOptions without = with_inner;
+  without.inner_rings = false;  // every ring out to 24 mm, as before
+  StemScan a, b;
+  const double e_inner = median_pith_error(src, with_inner, src.pith(), &a);
+  const double e_all = median_pith_error(src, without, src.pith(), &b);
+  std::printf(
+      "[pith robust] rings moving off with age: median %.2f mm with the innermost rings (%.1f "
+      "mm, %s, moved %.2f mm, gain %+.2f), %.2f mm on all rings\n",
+      e_inner, a.inner_ring_mm, a.inner_used ? "used" : "not used", a.inner_shift_mm, a.inner_gain,
+      e_all);
+  EXPECT_TRUE(a.inner_used);
+  EXPECT_FALSE(b.inner_used);
+  EXPECT_LE(e_inner, 0.5);
+  EXPECT_GT(e_all, 1.0);
+}
+
 }  // namespace
 }  // namespace sawyer::ct

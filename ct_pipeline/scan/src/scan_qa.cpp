@@ -362,6 +362,13 @@ ScanQaDetail assess_scan(const StemScan& scan, const KnotScan* knots, const Volu
                     scan.ring_drift_spread);
       st.notes.push_back(line);
     }
+    if (scan.inner_used && scan.inner_shift_mm > 0.5) {
+      std::snprintf(line, sizeof line,
+                    "the innermost rings (within %.0f mm) are centred %.1f mm from where all rings "
+                    "line up (median; growth that moved off with age): the pith follows them",
+                    scan.inner_ring_mm, scan.inner_shift_mm);
+      st.notes.push_back(line);
+    }
     // Where, and why (the most common reason in each run); the three longest runs.
     std::vector<Run> sorted = runs;
     std::sort(sorted.begin(), sorted.end(),

@@ -183,6 +183,81 @@ WhorlOffsets ring_offsets(const std::vector<double>& z, const std::vector<char>&
   return w;
 }
 
+// The innermost rings' pass (StemScanOptions::inner_rings): every refined slice lined up again
+// on the rings near the pith, around the settled track and then around the last smoothed inner
+// track, and the inner track used where it earns it (the gate in StemScanOptions). `first` is the
+// first track (corrections beyond max_correction_mm from it are not believed, as in the passes
+// before); `outlines_around(track)` gives each slice's outline around a track.
+template <typename Outlines>
+void inner_rings_pass(StemScan& scan, const std::vector<double>& z, const CropStore& crops,
+                      const StemScanOptions& options, const VolumeGeometry& g,
+                      const PithRefineOptions& ro, const std::vector<Vec2>& first,
+                      Outlines outlines_around, const std::vector<PithResult>& refined,
+                      std::vector<Vec2>& track) {
+  const int n = static_cast<int>(track.size());
+  if (!options.inner_rings || refined.empty()) return;
+  std::vector<double> period, outer_dev;
+  std::vector<bool> which(static_cast<size_t>(n), false);
+  for (int i = 0; i < n; ++i) {
+    const PithResult& q = refined[static_cast<size_t>(i)];
+    if (!q.found) continue;
+    which[static_cast<size_t>(i)] = true;
+    if (q.ring_period_mm > 0) period.push_back(q.ring_period_mm);
+    outer_dev.push_back((q.pith_mm - track[static_cast<size_t>(i)]).norm());
+  }
+  if (period.size() < 3) return;
+  const double inner = std::clamp(options.inner_ring_periods * median(period),
+                                  options.inner_ring_min_mm, options.inner_ring_max_mm);
+  if (inner < options.inner_min_px * std::max(g.spacing_x, g.spacing_y)) return;
+  PithRefineOptions io = ro;
+  io.ring_max_mm = inner;
+  io.search_radius_mm = options.inner_search_mm;
+  io.search_drift = false;
+  std::vector<Vec2> t = track;
+  std::vector<PithResult> r;
+  for (int it = 0; it < std::max(1, options.inner_iterations); ++it) {
+    // The first search wide, the others as narrow as the passes' around the track they correct.
+    if (it > 0)
+      io.search_radius_mm = std::min(options.inner_search_mm, options.refine.search_radius_mm);
+    const std::vector<std::vector<double>> outlines = outlines_around(t);
+    r = refine_pith_track(crops, z, t, g, options.pith, io, &outlines, &which);
+    for (int i = 0; i < n; ++i) {
+      PithResult& q = r[static_cast<size_t>(i)];
+      scan.pith_refinements += q.found;
+      if (q.found && (q.pith_mm - first[static_cast<size_t>(i)]).norm() > options.max_correction_mm)
+        q.found = false;
+    }
+    t = smooth_pith_track(z, r, options.track);
+    if (t.empty()) return;
+  }
+  // The same inner rings' signal share at the settled track: what moving earns.
+  PithRefineOptions at = io;
+  at.search_radius_mm = 0;
+  const std::vector<std::vector<double>> outlines = outlines_around(track);
+  const std::vector<PithResult> r0 =
+      refine_pith_track(crops, z, track, g, options.pith, at, &outlines, &which);
+  std::vector<double> dev, shift, gain;
+  for (int i = 0; i < n; ++i) {
+    const PithResult& q = r[static_cast<size_t>(i)];
+    if (!q.found) continue;
+    dev.push_back((q.pith_mm - t[static_cast<size_t>(i)]).norm());
+    shift.push_back((t[static_cast<size_t>(i)] - track[static_cast<size_t>(i)]).norm());
+    if (r0[static_cast<size_t>(i)].found)
+      gain.push_back(q.confidence - r0[static_cast<size_t>(i)].confidence);
+  }
+  if (dev.size() < 3 || gain.empty()) return;
+  scan.inner_ring_mm = inner;
+  scan.inner_scatter_mm = median(dev);
+  scan.outer_scatter_mm = outer_dev.empty() ? 0.0 : median(outer_dev);
+  scan.inner_shift_mm = median(shift);
+  scan.inner_gain = median(gain);
+  scan.inner_used =
+      scan.inner_gain >= options.inner_min_gain &&
+      scan.inner_scatter_mm <= std::max(options.inner_max_scatter_mm,
+                                        options.inner_scatter_ratio * scan.outer_scatter_mm);
+  if (scan.inner_used) track = std::move(t);
+}
+
 // The pith from every cue (issue 20). The ring track (`track`, from `refined`) stands where the
 // rings were resolved; elsewhere (coarse pixels, faint rings, rot over the centre, or a ring
 // track that left the heart of the log) the pith follows the centre of the log's shape (the
@@ -190,10 +265,11 @@ WhorlOffsets ring_offsets(const std::vector<double>& z, const std::vector<char>&
 // that the knot whorls showed nearby (pith_whorl.h) or, without whorls, by the eccentricity the
 // rings showed where resolved. Fills the records' diagnostics and the summary; `track` is
 // updated. `research(centres, which)` refines the slices `which` marks again around `centres`.
-template <typename Research>
+template <typename Research, typename Inner>
 void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<PithResult> refined,
                     std::vector<Vec2>& track, const CropStore& crops,
-                    const StemScanOptions& options, const VolumeGeometry& g, Research research) {
+                    const StemScanOptions& options, const VolumeGeometry& g, Research research,
+                    Inner inner) {
   const int n = static_cast<int>(scan.slices.size());
   std::vector<PithResult> shape_raw(static_cast<size_t>(n));
   std::vector<double> radius(static_cast<size_t>(n), 0.0);
@@ -246,6 +322,8 @@ void fuse_pith_cues(StemScan& scan, const std::vector<double>& z, std::vector<Pi
       }
     }
   }
+  // Then the innermost rings, around the ring track that stood.
+  if (!refined.empty()) inner(refined, track);
   // Ring signal per slice: the refined slices' signal shares, a running median along z over the
   // refinement's averaging window, so one slice through a whorl does not flip the decision.
   std::vector<double> zr, sr, pr;
@@ -863,17 +941,21 @@ Result<StemScan> scan_stem(SliceSource& source, const StemScanOptions& options_i
     ++scan.pith_refine_passes;
     if (!again) break;
   }
-  fuse_pith_cues(scan, z, refined, track, crops, options, g,
-                 [&](const std::vector<Vec2>& centres, const std::vector<bool>& marked) {
-                   PithRefineOptions wide = ro;
-                   wide.search_radius_mm =
-                       options.first_search_mm;  // as the first pass: a fair comparison
-                   const std::vector<std::vector<double>> outlines = outlines_around(centres);
-                   std::vector<PithResult> r = refine_pith_track(crops, z, centres, g, options.pith,
-                                                                 wide, &outlines, &marked);
-                   for (const PithResult& q : r) scan.pith_refinements += q.found;
-                   return r;
-                 });
+  fuse_pith_cues(
+      scan, z, refined, track, crops, options, g,
+      [&](const std::vector<Vec2>& centres, const std::vector<bool>& marked) {
+        PithRefineOptions wide = ro;
+        wide.search_radius_mm = options.first_search_mm;  // as the first pass: a fair comparison
+        const std::vector<std::vector<double>> outlines = outlines_around(centres);
+        std::vector<PithResult> r =
+            refine_pith_track(crops, z, centres, g, options.pith, wide, &outlines, &marked);
+        for (const PithResult& q : r) scan.pith_refinements += q.found;
+        return r;
+      },
+      [&](const std::vector<PithResult>& ring_results, std::vector<Vec2>& ring_track) {
+        inner_rings_pass(scan, z, crops, options, g, ro, first, outlines_around, ring_results,
+                         ring_track);
+      });
   scan.seconds_refining =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_tracked).count();
   for (int i = 0; i < n; ++i) {

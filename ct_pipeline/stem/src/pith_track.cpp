@@ -7,6 +7,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <list>
 #include <mutex>
 #include <thread>
@@ -82,9 +83,17 @@ SliceCrop make_crop(const Slice& s, const VolumeGeometry& g, Vec2 c, std::int64_
 // farther than kOutlierSigmas robust spreads (noise and ring signal) from its wood level near the
 // pith are left out (knots in dry heartwood are 300-500 HU above it, cracks and the sapwood step
 // as far), so a whorl blurred along z does not leak into the rings. Level and spread: median and
-// MAD of the wood pixels within kLevelRadiusMm of the pith.
+// MAD of the pixels within kLevelRadiusMm of the pith in the wood window (wood_min_hu,
+// wood_max_hu). The first track's boxes (PithTracker) take the slice's window, whose top (the
+// scan's dense threshold) keeps the bed and clutter out where a lost track's box reaches them.
+// The refinement's, around the settled track by the pith where no bed lies, have no top: there a
+// dense threshold cuts into the wood itself (dense juvenile or compression wood, a dried log's
+// latewood on a calibration that reads it 400 HU higher: the real disc of bench/real_slices lost
+// the wood beside its pith to the cut, and the ring profile took the hole's rim for rings), and
+// the MAD, not a threshold, keeps the knots out.
 constexpr float kOutlierSigmas = 4.f;
 constexpr double kLevelRadiusMm = 15.0;
+constexpr double kNoUpperBound = std::numeric_limits<double>::infinity();
 
 struct Level {
   float level = NAN;
@@ -382,7 +391,7 @@ PithResult refine_one(const CropStore& crops, const std::vector<double>& z,
   // Only the rows and columns the refinement reads are averaged (the rest stay unused).
   const Vec2 origin{c.x0 * g.spacing_x, c.y0 * g.spacing_y};
   const Vec2 prior = start - origin;
-  const double reach = ring_profile_reach_mm(refine.search_radius_mm);
+  const double reach = ring_profile_reach_mm(refine.search_radius_mm, refine.ring_max_mm);
   const int ux0 = std::max(0, static_cast<int>((prior.x - reach) / g.spacing_x) - 1);
   const int uy0 = std::max(0, static_cast<int>((prior.y - reach) / g.spacing_y) - 1);
   const int ux1 = std::min(c.width, static_cast<int>((prior.x + reach) / g.spacing_x) + 3);
@@ -422,7 +431,7 @@ PithResult refine_one(const CropStore& crops, const std::vector<double>& z,
                                            ? &(*outlines)[static_cast<size_t>(i)]
                                            : nullptr;
   PithResult r =
-      refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline, kRingProfileMaxMm,
+      refine_pith_concentric(avg, g, prior, refine.search_radius_mm, outline, refine.ring_max_mm,
                              0.0, refine.ring_shape_share, refine.ring_drift,
                              refine.search_drift ? &refine.drift_search : nullptr);
   if (r.found) r.pith_mm = r.pith_mm + origin;
@@ -461,7 +470,7 @@ std::vector<PithResult> refine_pith_track(
       if (m.hu.empty()) continue;
       levels[static_cast<size_t>(j)] = wood_level(
           m.hu.data(), m.width, m.height, track[j].x / geometry.spacing_x - m.x0,
-          track[j].y / geometry.spacing_y - m.y0, lrx, lry, m.wood_min_hu, m.wood_max_hu);
+          track[j].y / geometry.spacing_y - m.y0, lrx, lry, m.wood_min_hu, kNoUpperBound);
     }
   };
   auto work = [&] {

@@ -108,6 +108,34 @@ struct StemScanOptions {
   double ring_drift_min = 0.01;
   double ring_drift_consistency = 2.5;
   double ring_drift_min_gain = -0.35;
+  // The innermost rings, last: once the track has settled, every refined slice is lined up
+  // again on the rings within inner_ring_periods ring periods of the pith (the scan's median
+  // ring period, within inner_ring_min_mm..inner_ring_max_mm), searching inner_search_mm around
+  // the track, then inner_iterations - 1 times more within refine.search_radius_mm around the
+  // last smoothed inner track. The pith is the centre of the innermost rings; all rings out to
+  // 24 mm line up around a point between it and the larger rings' centres wherever the rings'
+  // centre moves with their radius in any way (growth that changed with age, which the one
+  // drift above does not describe; the real dried disc of bench/real_slices: 6 px, 2.6 mm).
+  // The inner track is used only where the inner rings line up clearly better there than at
+  // the settled track (their signal share up by inner_min_gain, median over the slices), and
+  // the inner piths follow a smooth track more tightly than the full rings' piths do (their
+  // median distance from their own smoothed track at most inner_scatter_ratio times the full
+  // rings', or inner_max_scatter_mm): where the full rings are a compromise between inner and
+  // outer centres, the compromise wanders from slice to slice and the pith's own rings do not;
+  // a few rings also line up around a crack's, a knot's or a rot's rim, and those scatter
+  // (sweep #120, rot by the pith: +0.36 signal for a 3 mm move, scatter 0.26 mm against 0.29;
+  // the disc: +0.28 for 3.2 mm, 0.03 against 0.10; the real SPR3B's crack: -0.02). Fine scans
+  // only: the inner radius at least inner_min_px pixels.
+  bool inner_rings = true;
+  double inner_ring_periods = 3.0;
+  double inner_ring_min_mm = 10.0;
+  double inner_ring_max_mm = 16.0;
+  double inner_search_mm = 4.0;
+  int inner_iterations = 3;
+  double inner_max_scatter_mm = 0.05;
+  double inner_scatter_ratio = 0.5;
+  double inner_min_gain = 0.15;
+  double inner_min_px = 10.0;
   // The whorl cue (pith_whorl.h) where the rings are not resolved.
   WhorlPithOptions whorl;
   // When set (an empty_like volume of the source's geometry), every slice with a contour is
@@ -198,6 +226,14 @@ struct StemScan {
   Vec2 ring_drift_measured;       // the probes' median drift, used or not
   double ring_drift_spread = 0;   // the probes' median deviation from it (mm per mm)
   double ring_drift_gain = 0;     // median ring signal with it over concentric rings, less 1
+  // The innermost rings' pass (StemScanOptions::inner_rings): the radius it lined up (mm; 0:
+  // not run), how far the inner piths lie from their smoothed track and the full rings' piths
+  // from theirs (medians, mm), whether it was used, and the median move it made (mm).
+  double inner_ring_mm = 0;
+  double inner_scatter_mm = 0, outer_scatter_mm = 0;
+  bool inner_used = false;
+  double inner_shift_mm = 0;
+  double inner_gain = 0;  // median signal share of the inner rings there over at the track
   std::size_t crop_bytes_in_memory = 0, crop_bytes_spilled = 0;  // the pith crops (CropStore)
   // Stem values replaced because they left their neighbours along z (a chain on the log, a bad
   // slice): outer radius and heartwood, in azimuth samples.

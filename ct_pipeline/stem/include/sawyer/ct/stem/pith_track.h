@@ -216,6 +216,9 @@ struct PithRefineOptions {
   Vec2 ring_drift;
   bool search_drift = false;
   RingDriftSearch drift_search;
+  // The rings lined up out to this radius (mm) from the pith (refine_pith_concentric's
+  // ring_max_mm): the stem pass's last look at the innermost rings takes fewer.
+  double ring_max_mm = kRingProfileMaxMm;
 };
 
 // Second pass over the crops of a first, smoothed track: each slice's pith is detected again on
