@@ -236,6 +236,7 @@ void inner_rings_pass(StemScan& scan, const std::vector<double>& z, const CropSt
   const std::vector<std::vector<double>> outlines = outlines_around(track);
   const std::vector<PithResult> r0 =
       refine_pith_track(crops, z, track, g, options.pith, at, &outlines, &which);
+  for (const PithResult& q : r0) scan.pith_refinements += q.found;
   std::vector<double> dev, shift, gain;
   for (int i = 0; i < n; ++i) {
     const PithResult& q = r[static_cast<size_t>(i)];
